@@ -1,0 +1,43 @@
+// A trained HAHA avatar: what the trainer produces, `haha pack` stores and the loader
+// reads. Gaussians are bound to faces of the body mesh and live in their face's local
+// frame (method.md section 1): world mu' = k R mu + T, r' = R * r, s' = k s.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "body/body_model.h"
+
+namespace haha {
+
+// Structure of arrays; N = face.size(). Values are stored activated (not logits):
+// scale > 0 in units of the face scale k, opacity in [0, 1], colour linear RGB in [0, 1].
+struct BoundGaussians {
+  std::vector<int32_t> face;     // (N) parent face index
+  std::vector<float> offset;     // (N, 3) local mu
+  std::vector<float> rotation;   // (N, 4) local unit quaternion (w, x, y, z)
+  std::vector<float> scale;      // (N, 3)
+  std::vector<float> color;      // (N, 3)
+  std::vector<float> opacity;    // (N)
+  int size() const { return int(face.size()); }
+  void resize(int n) {
+    face.resize(n); offset.resize(3 * n); rotation.resize(4 * n); scale.resize(3 * n);
+    color.resize(3 * n); opacity.resize(n);
+  }
+};
+
+struct Texture {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // (H, W, 3), row 0 = top of the image (v = 1)
+};
+
+struct Avatar {
+  BodyModel body;                 // topology, skinning, UVs (correctives optional)
+  std::vector<float> betas;       // subject shape
+  std::vector<float> expression;  // subject expression (usually zeros)
+  Texture texture;
+  BoundGaussians gaussians;
+  float face_scale_divisor = 1.0f;  // k is divided by this (release: 0.05) so k ~ 1
+};
+
+}  // namespace haha

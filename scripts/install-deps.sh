@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages haha builds against (skips apt when all are present).
+set -euo pipefail
+pkgs=(build-essential cmake ninja-build pkg-config git
+      libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libopenmesh-dev
+      libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev
+      libgtest-dev libbenchmark-dev gnuplot-nox ffmpeg nodejs npm)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "haha: installing ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi

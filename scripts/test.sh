@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The test command: installs, builds and runs the CTest suite (labels fast and slow; gpu
+# tests run only where a GPU is present). `scripts/test.sh -L fast` runs the fast ones.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/build.sh
+cd build
+if [ $# -gt 0 ]; then
+  ctest --output-on-failure -j "$(nproc)" "$@"
+else
+  ctest --output-on-failure -j "$(nproc)" -LE gpu
+fi
