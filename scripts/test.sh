@@ -5,6 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
 cd build
+# Passive OpenMP waiting: ctest runs several test programs at once on few cores.
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 if [ $# -gt 0 ]; then
   ctest --output-on-failure -j "$(nproc)" "$@"
 else

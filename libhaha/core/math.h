@@ -15,7 +15,7 @@ namespace haha {
 template <class T>
 struct Vec2 {
   T x{}, y{};
-  HAHA_HD Vec2() = default;
+  Vec2() = default;
   HAHA_HD Vec2(T x_, T y_) : x(x_), y(y_) {}
   HAHA_HD T& operator[](int i) { return i == 0 ? x : y; }
   HAHA_HD const T& operator[](int i) const { return i == 0 ? x : y; }
@@ -24,7 +24,7 @@ struct Vec2 {
 template <class T>
 struct Vec3 {
   T x{}, y{}, z{};
-  HAHA_HD Vec3() = default;
+  Vec3() = default;
   HAHA_HD Vec3(T x_, T y_, T z_) : x(x_), y(y_), z(z_) {}
   HAHA_HD explicit Vec3(T s) : x(s), y(s), z(s) {}
   template <class U>
@@ -38,7 +38,7 @@ struct Vec3 {
 template <class T>
 struct Vec4 {
   T x{}, y{}, z{}, w{};
-  HAHA_HD Vec4() = default;
+  Vec4() = default;
   HAHA_HD Vec4(T x_, T y_, T z_, T w_) : x(x_), y(y_), z(z_), w(w_) {}
 };
 
@@ -169,7 +169,7 @@ HAHA_HD Rigid<T> operator*(const Rigid<T>& a, const Rigid<T>& b) {
 template <class T>
 struct Quat {
   T w{1}, x{}, y{}, z{};
-  HAHA_HD Quat() = default;
+  Quat() = default;
   HAHA_HD Quat(T w_, T x_, T y_, T z_) : w(w_), x(x_), y(y_), z(z_) {}
   HAHA_HD static Quat load(const T* p) { return {p[0], p[1], p[2], p[3]}; }
   HAHA_HD void store(T* p) const { p[0] = w; p[1] = x; p[2] = y; p[3] = z; }

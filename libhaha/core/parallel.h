@@ -35,10 +35,13 @@ inline int thread_index() {
 #endif
 }
 
-// Static schedule: equal-cost iterations (vertices, Gaussians).
+// Below this many cheap iterations a parallel region costs more than it saves.
+constexpr int64_t kMinParallelItems = 2048;
+
+// Static schedule: equal-cost iterations (vertices, Gaussians). Small loops run serially.
 template <class F>
 void parallel_for(int64_t n, F&& body) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kMinParallelItems)
   for (int64_t i = 0; i < n; ++i) body(i);
 }
 

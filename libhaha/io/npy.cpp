@@ -329,6 +329,7 @@ void Npz::write(const std::string& path) const {
       const zip_int64_t idx = zip_file_add(z, (name + ".npy").c_str(), src, ZIP_FL_OVERWRITE);
       if (idx < 0) { zip_source_free(src); zip_discard(z); fail(path, "cannot add " + name); }
       zip_set_file_compression(z, zip_uint64_t(idx), ZIP_CM_DEFLATE, 1);
+      zip_file_set_mtime(z, zip_uint64_t(idx), 0, 0);  // byte-identical files for identical arrays
     }
     if (zip_close(z) != 0) {
       std::string msg = zip_strerror(z);
