@@ -13,6 +13,20 @@
 
 namespace haha {
 
+// Non-owning view of one frame's parameters in the scalar type T (SmplxParams is float;
+// double views drive the finite-difference tests). Only the betas / expression values
+// given are used (the other model columns count as zero): num_betas <= model num_shape,
+// num_expr <= model num_expr, else forward throws.
+template <class T>
+struct SmplxView {
+  const T* pose = nullptr;        // (165) axis-angle, layout of SmplxParams::pose
+  const T* betas = nullptr;       // (num_betas)
+  int num_betas = 0;
+  const T* expression = nullptr;  // (num_expr)
+  int num_expr = 0;
+  const T* transl = nullptr;      // (3); null = zero
+};
+
 template <class T>
 struct SmplxGrad {
   std::array<T, kNumPoseValues> pose{};
@@ -44,6 +58,16 @@ class Lbs {
   void backward(const SmplxParams& p, const LbsCache<T>& cache, const T* d_verts, const T* d_joints,
                 SmplxGrad<T>& grad) const;
   SmplxGrad<T> make_grad(const SmplxParams& p) const;
+
+  // The same on a scalar-T view (identical maths; the SmplxParams overloads convert).
+  void forward(const SmplxView<T>& p, T* verts, T* joints, LbsCache<T>* cache) const;
+  void backward(const SmplxView<T>& p, const LbsCache<T>& cache, const T* d_verts, const T* d_joints,
+                SmplxGrad<T>& grad) const;
+  SmplxGrad<T> make_grad(const SmplxView<T>& p) const;
+
+  // Batch over frames: verts (N, V, 3), joints (N, 55, 3) or null. Frames run one after
+  // another, each parallel over vertices.
+  void forward_frames(const std::vector<SmplxParams>& frames, T* verts, T* joints) const;
 
   int num_verts() const { return num_verts_; }
   const BodyModel& model() const { return *model_; }
