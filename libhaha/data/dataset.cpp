@@ -1,0 +1,508 @@
+#include "data/dataset.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "io/camera_json.h"
+#include "io/smplx_params_io.h"
+
+namespace haha {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+constexpr int kDatasetVersion = 1;
+constexpr const char* kDatasetFormat = "haha-dataset";
+
+const char* split_name(Split s) { return s == Split::train ? "train" : "test"; }
+
+Split parse_split(const std::string& s, const std::string& where) {
+  if (s == "train") return Split::train;
+  if (s == "test") return Split::test;
+  fail(where, "split '" + s + "' is neither \"train\" nor \"test\"");
+}
+
+namespace {
+
+std::string json_message(const std::exception& e) {
+  std::string m = e.what();
+  const auto p = m.find("] ");
+  return p == std::string::npos ? m : m.substr(p + 2);
+}
+
+// Camera <-> the dataset.json camera object (io/camera_json.h's keys minus the size,
+// which is the dataset's).
+ojson camera_object(const Camera& cam) {
+  ojson j = ojson::parse(camera_to_json(cam));
+  j.erase("width");
+  j.erase("height");
+  return j;
+}
+
+Camera parse_camera_object(const ojson& j, int width, int height, const std::string& where) {
+  if (!j.is_object()) fail(where, "expected a camera object");
+  ojson full = {{"width", width}, {"height", height}};
+  for (const auto& [k, v] : j.items()) {
+    if (k == "width" || k == "height") fail(where, k + ": the camera size is the dataset's; remove it");
+    full[k] = v;
+  }
+  return parse_camera_json(full.dump(), where);
+}
+
+// Relative path inside the dataset directory: no absolute paths, no "..".
+std::string dataset_file(const std::string& dir, const ojson& v, const std::string& where) {
+  if (!v.is_string()) fail(where, "expected a relative file name");
+  const std::string s = v.get<std::string>();
+  const fs::path p(s);
+  if (s.empty() || p.is_absolute()) fail(where, "'" + s + "' must be a path relative to the dataset directory");
+  for (const auto& part : p)
+    if (part == "..") fail(where, "'" + s + "' must stay inside the dataset directory (no '..')");
+  return (fs::path(dir) / p).string();
+}
+
+void check_finite(const SmplxParams& p, const std::string& where) {
+  auto ok = [](const float* v, size_t n) {
+    for (size_t i = 0; i < n; ++i)
+      if (!std::isfinite(v[i])) return false;
+    return true;
+  };
+  if (!ok(p.pose.data(), p.pose.size()) || !ok(p.betas.data(), p.betas.size()) ||
+      !ok(p.expression.data(), p.expression.size()) || !ok(p.transl.data(), 3))
+    fail(where, "non-finite SMPL-X parameter");
+}
+
+// RGB from 1 (grey), 3 or 4 (alpha dropped) channels.
+Image to_rgb(Image img, const std::string& where) {
+  if (img.channels == 3) return img;
+  if (img.channels != 1 && img.channels != 4 && img.channels != 2)
+    fail(where, "image has " + std::to_string(img.channels) + " channels, expected RGB");
+  Image out(img.width, img.height, 3);
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = img.at(x, y, img.channels >= 3 ? c : 0);
+  return out;
+}
+
+// First channel (grey masks; an RGB(A) mask uses its red channel).
+Image first_channel(const Image& img) {
+  if (img.channels == 1) return img;
+  Image out(img.width, img.height, 1);
+  for (size_t i = 0; i < size_t(img.width) * img.height; ++i) out.data[i] = img.data[i * size_t(img.channels)];
+  return out;
+}
+
+bool is_dataset_dir(const fs::path& d) {
+  std::error_code ec;
+  return fs::is_regular_file(d / "dataset.json", ec);
+}
+
+bool is_empty_dir(const fs::path& d) {
+  std::error_code ec;
+  return fs::is_directory(d, ec) && fs::is_empty(d, ec);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// Dataset
+
+void Dataset::load_frame(int i) {
+  if (i < 0 || i >= int(frames.size())) throw Error(path + ": frame " + std::to_string(i) + " out of range");
+  DatasetFrame& f = frames[size_t(i)];
+  if (!f.image.empty() && !f.mask.empty()) return;
+  if (!loader) fail(path, "frame " + std::to_string(i) + " has no pixels and the dataset no loader");
+  Image rgb, mask;
+  loader(i, rgb, mask);
+  const std::string& img_where = f.image_path.empty() ? path : f.image_path;
+  const std::string& mask_where = f.mask_path.empty() ? path : f.mask_path;
+  if (rgb.width != width || rgb.height != height || rgb.channels != 3)
+    fail(img_where, "image is " + std::to_string(rgb.width) + "x" + std::to_string(rgb.height) + "x" +
+                        std::to_string(rgb.channels) + ", the dataset is " + std::to_string(width) + "x" +
+                        std::to_string(height) + " RGB");
+  if (mask.width != width || mask.height != height || mask.channels != 1)
+    fail(mask_where, "mask is " + std::to_string(mask.width) + "x" + std::to_string(mask.height) + "x" +
+                         std::to_string(mask.channels) + ", the dataset is " + std::to_string(width) + "x" +
+                         std::to_string(height) + " with one mask channel");
+  f.image = std::move(rgb);
+  f.mask = std::move(mask);
+}
+
+void Dataset::load_all() {
+  const int n = int(frames.size());
+  std::vector<std::string> errors(static_cast<size_t>(n));
+  parallel_for_dynamic(n, [&](int64_t i) {
+    try {
+      load_frame(int(i));
+    } catch (const std::exception& e) {
+      errors[size_t(i)] = e.what();
+    }
+  });
+  for (const std::string& e : errors)
+    if (!e.empty()) throw Error(e);
+}
+
+void Dataset::unload_frame(int i) {
+  frames.at(size_t(i)).image = Image();
+  frames.at(size_t(i)).mask = Image();
+}
+
+std::vector<int> Dataset::indices(Split s) const {
+  std::vector<int> out;
+  for (int i = 0; i < int(frames.size()); ++i)
+    if (frames[size_t(i)].split == s) out.push_back(i);
+  return out;
+}
+
+bool Dataset::is_static_camera() const {
+  for (const DatasetFrame& f : frames)
+    if (camera_to_json(f.camera) != camera_to_json(frames.front().camera)) return false;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------
+// Reading
+
+Dataset read_dataset(const std::string& dir, LoadPixels load) {
+  const std::string json_path = (fs::path(dir) / "dataset.json").string();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) fail(dir, "no such dataset directory");
+  if (!fs::is_regular_file(json_path, ec)) fail(json_path, "missing (not a haha dataset directory)");
+
+  ojson root;
+  {
+    std::ifstream f(json_path, std::ios::binary);
+    if (!f) fail(json_path, "cannot open");
+    std::stringstream ss;
+    ss << f.rdbuf();
+    try {
+      root = ojson::parse(ss.str());
+    } catch (const std::exception& e) {
+      fail(json_path, "invalid JSON: " + json_message(e));
+    }
+  }
+  auto where = [&](const std::string& key) { return json_path + ": " + key; };
+  if (!root.is_object()) fail(json_path, "expected a JSON object at the top level");
+  for (const auto& [k, v] : root.items()) {
+    (void)v;
+    static const char* known[] = {"format", "version", "width", "height", "fps", "gender", "source",
+                                  "camera", "smplx", "smplx_true", "frames"};
+    bool ok = false;
+    for (const char* kk : known) ok = ok || k == kk;
+    if (!ok) fail(where(k), "unknown key");
+  }
+  auto require = [&](const char* key) -> const ojson& {
+    if (!root.contains(key)) fail(where(key), "missing");
+    return root[key];
+  };
+  if (!require("format").is_string() || root["format"].get<std::string>() != kDatasetFormat)
+    fail(where("format"), std::string("expected \"") + kDatasetFormat + "\"");
+  if (!require("version").is_number_integer() || root["version"].get<int64_t>() != kDatasetVersion)
+    fail(where("version"), "unsupported version (this build reads version " + std::to_string(kDatasetVersion) + ")");
+
+  Dataset ds;
+  ds.path = dir;
+  auto size_value = [&](const char* key) {
+    const ojson& v = require(key);
+    if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 32768)
+      fail(where(key), "expected an integer in [1, 32768]");
+    return int(v.get<int64_t>());
+  };
+  ds.width = size_value("width");
+  ds.height = size_value("height");
+  if (root.contains("fps")) {
+    if (!root["fps"].is_number() || !(root["fps"].get<double>() > 0) || !std::isfinite(root["fps"].get<double>()))
+      fail(where("fps"), "expected a positive number");
+    ds.fps = root["fps"].get<double>();
+  }
+  if (root.contains("gender")) {
+    if (!root["gender"].is_string()) fail(where("gender"), "expected a string");
+    ds.gender = root["gender"].get<std::string>();
+    if (ds.gender != "neutral" && ds.gender != "male" && ds.gender != "female")
+      fail(where("gender"), "'" + ds.gender + "' is not neutral, male or female");
+  }
+  if (root.contains("source")) {
+    if (!root["source"].is_string()) fail(where("source"), "expected a string");
+    ds.source = root["source"].get<std::string>();
+  }
+  bool have_static = false;
+  Camera static_cam;
+  if (root.contains("camera")) {
+    static_cam = parse_camera_object(root["camera"], ds.width, ds.height, where("camera"));
+    have_static = true;
+  }
+
+  const ojson& frames = require("frames");
+  if (!frames.is_array() || frames.empty()) fail(where("frames"), "expected a non-empty list of frames");
+  ds.frames.resize(frames.size());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const std::string fw = where("frames[" + std::to_string(i) + "]");
+    const ojson& fj = frames[i];
+    if (!fj.is_object()) fail(fw, "expected an object");
+    for (const auto& [k, v] : fj.items()) {
+      (void)v;
+      if (k != "image" && k != "mask" && k != "split" && k != "source_index" && k != "camera")
+        fail(fw + "." + k, "unknown key");
+    }
+    DatasetFrame& f = ds.frames[i];
+    if (!fj.contains("image")) fail(fw + ".image", "missing");
+    if (!fj.contains("mask")) fail(fw + ".mask", "missing");
+    f.image_path = dataset_file(dir, fj["image"], fw + ".image");
+    f.mask_path = dataset_file(dir, fj["mask"], fw + ".mask");
+    if (!fj.contains("split") || !fj["split"].is_string()) fail(fw + ".split", "missing (\"train\" or \"test\")");
+    f.split = parse_split(fj["split"].get<std::string>(), fw + ".split");
+    if (fj.contains("source_index")) {
+      if (!fj["source_index"].is_number_integer()) fail(fw + ".source_index", "expected an integer");
+      f.source_index = int(fj["source_index"].get<int64_t>());
+    }
+    if (fj.contains("camera")) f.camera = parse_camera_object(fj["camera"], ds.width, ds.height, fw + ".camera");
+    else if (have_static) f.camera = static_cam;
+    else fail(fw + ".camera", "missing (and no top-level \"camera\")");
+  }
+
+  // Files referenced by the frame list exist and are images of the dataset's size.
+  // Checked here, in order, so the first missing frame is the one reported.
+  for (const DatasetFrame& f : ds.frames) {
+    for (const std::string* p : {&f.image_path, &f.mask_path}) {
+      if (!fs::is_regular_file(*p, ec))
+        fail(*p, std::string("missing ") + (p == &f.image_path ? "frame image" : "mask") + " listed in " + json_path);
+      const ImageInfo info = read_image_info(*p);
+      if (info.width != ds.width || info.height != ds.height)
+        fail(*p, "image is " + std::to_string(info.width) + "x" + std::to_string(info.height) + ", dataset.json says " +
+                     std::to_string(ds.width) + "x" + std::to_string(ds.height));
+    }
+  }
+
+  // Parameters: one row per frame.
+  auto read_params = [&](const char* key) {
+    const std::string p = dataset_file(dir, root[key], where(key));
+    if (!fs::is_regular_file(p, ec)) fail(p, std::string("missing (named by ") + json_path + " " + key + ")");
+    std::vector<SmplxParams> v = read_smplx_params(p);
+    if (v.size() != ds.frames.size())
+      fail(p, std::to_string(v.size()) + " frames of SMPL-X parameters, but " + json_path + " lists " +
+                  std::to_string(ds.frames.size()) + " frames");
+    for (size_t i = 0; i < v.size(); ++i) check_finite(v[i], p + ": frame " + std::to_string(i));
+    return v;
+  };
+  require("smplx");
+  const std::vector<SmplxParams> params = read_params("smplx");
+  for (size_t i = 0; i < params.size(); ++i) ds.frames[i].params = params[i];
+  if (root.contains("smplx_true")) ds.params_true = read_params("smplx_true");
+
+  // The loader must not capture `ds` (it moves on return): it captures the paths.
+  std::vector<std::pair<std::string, std::string>> files;
+  for (const DatasetFrame& f : ds.frames) files.emplace_back(f.image_path, f.mask_path);
+  ds.loader = [files = std::move(files)](int i, Image& rgb, Image& mask) {
+    const auto& [img_path, mask_path] = files.at(size_t(i));
+    rgb = to_rgb(read_image(img_path), img_path);
+    mask = first_channel(read_image(mask_path));
+  };
+  if (load == LoadPixels::all) ds.load_all();
+  return ds;
+}
+
+// ---------------------------------------------------------------------------------------
+// Writing
+
+struct DatasetWriter::State {
+  fs::path dir, tmp;
+  int width = 0, height = 0;
+  double fps = 30;
+  std::string gender, source;
+  ojson frames = ojson::array();
+  std::vector<Camera> cameras;
+  std::vector<SmplxParams> params, truth;
+  int with_truth = 0;
+  bool finished = false;
+};
+
+DatasetWriter::DatasetWriter(std::string dir, int width, int height, double fps, std::string gender,
+                             std::string source)
+    : s_(std::make_unique<State>()) {
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  s_->dir = dir;
+  s_->tmp = dir + ".tmp-" + std::to_string(::getpid());
+  s_->width = width;
+  s_->height = height;
+  s_->fps = fps;
+  s_->gender = std::move(gender);
+  s_->source = std::move(source);
+  if (width < 1 || height < 1 || width > 32768 || height > 32768)
+    fail(dir, "dataset size " + std::to_string(width) + "x" + std::to_string(height) + " out of range");
+  if (!(fps > 0) || !std::isfinite(fps)) fail(dir, "fps must be positive");
+  if (s_->gender != "neutral" && s_->gender != "male" && s_->gender != "female")
+    fail(dir, "gender '" + s_->gender + "' is not neutral, male or female");
+  std::error_code ec;
+  if (fs::exists(s_->dir, ec)) {
+    if (!fs::is_directory(s_->dir, ec)) fail(dir, "exists and is not a directory");
+    if (!is_empty_dir(s_->dir) && !is_dataset_dir(s_->dir))
+      fail(dir, "exists, is not empty and holds no dataset.json: refusing to replace it");
+  }
+  fs::remove_all(s_->tmp, ec);
+  ensure_directory((s_->tmp / "images").string());
+  ensure_directory((s_->tmp / "masks").string());
+  ensure_directory((s_->tmp / "smplx").string());
+}
+
+DatasetWriter::~DatasetWriter() {
+  if (s_ && !s_->finished) {
+    std::error_code ec;
+    fs::remove_all(s_->tmp, ec);  // nothing half-written stays behind
+  }
+}
+
+int DatasetWriter::num_frames() const { return int(s_->params.size()); }
+
+void DatasetWriter::add(const DatasetFrame& frame, const Image& rgb_in, const Image& mask, const SmplxParams* truth) {
+  const int i = num_frames();
+  char name[32];
+  std::snprintf(name, sizeof name, "%06d.png", i);
+  const std::string img_rel = std::string("images/") + name, mask_rel = std::string("masks/") + name;
+  const std::string img_final = (s_->dir / img_rel).string(), mask_final = (s_->dir / mask_rel).string();
+  const std::string src = frame.image_path.empty() ? img_final : frame.image_path;
+  const std::string mask_src = frame.mask_path.empty() ? mask_final : frame.mask_path;
+
+  if (rgb_in.width != s_->width || rgb_in.height != s_->height || (rgb_in.channels != 3 && rgb_in.channels != 4))
+    fail(src, "frame " + std::to_string(i) + " image is " + std::to_string(rgb_in.width) + "x" +
+                  std::to_string(rgb_in.height) + "x" + std::to_string(rgb_in.channels) + ", the dataset is " +
+                  std::to_string(s_->width) + "x" + std::to_string(s_->height) + " RGB");
+  if (mask.width != s_->width || mask.height != s_->height || mask.channels != 1)
+    fail(mask_src, "frame " + std::to_string(i) + " mask is " + std::to_string(mask.width) + "x" +
+                       std::to_string(mask.height) + "x" + std::to_string(mask.channels) + ", the dataset is " +
+                       std::to_string(s_->width) + "x" + std::to_string(s_->height) + " with one channel");
+  const std::string frame_where =
+      (s_->dir / "dataset.json").string() + ": frames[" + std::to_string(i) + "]";
+  if (frame.camera.width != s_->width || frame.camera.height != s_->height)
+    fail(frame_where + ".camera", "camera is " + std::to_string(frame.camera.width) + "x" +
+                                      std::to_string(frame.camera.height) + ", the dataset is " +
+                                      std::to_string(s_->width) + "x" + std::to_string(s_->height));
+  // Round trip through the JSON form validates the camera (finite, rotation, K).
+  parse_camera_object(camera_object(frame.camera), s_->width, s_->height, frame_where + ".camera");
+  const std::string params_where = (s_->dir / "smplx" / "params.npz").string() + ": frame " + std::to_string(i);
+  check_finite(frame.params, params_where);
+  if (truth) check_finite(*truth, (s_->dir / "smplx" / "params_true.npz").string() + ": frame " + std::to_string(i));
+  if (i > 0 && (truth != nullptr) != (s_->with_truth > 0))
+    fail(src, "true SMPL-X parameters must be given for every frame or for none");
+  for (size_t k = 0; k < rgb_in.data.size(); ++k)
+    if (!std::isfinite(rgb_in.data[k])) fail(src, "non-finite pixel value");
+  for (size_t k = 0; k < mask.data.size(); ++k)
+    if (!std::isfinite(mask.data[k])) fail(mask_src, "non-finite mask value");
+
+  const Image rgb = to_rgb(rgb_in, src);
+  write_image((s_->tmp / img_rel).string(), rgb);
+  write_image((s_->tmp / mask_rel).string(), mask);
+
+  ojson fj;
+  fj["image"] = img_rel;
+  fj["mask"] = mask_rel;
+  fj["split"] = split_name(frame.split);
+  if (frame.source_index >= 0) fj["source_index"] = frame.source_index;
+  s_->frames.push_back(std::move(fj));
+  s_->cameras.push_back(frame.camera);
+  s_->params.push_back(frame.params);
+  if (truth) {
+    s_->truth.push_back(*truth);
+    ++s_->with_truth;
+  }
+}
+
+void DatasetWriter::finish() {
+  State& s = *s_;
+  if (s.finished) return;
+  if (s.params.empty()) fail(s.dir.string(), "no frames to write");
+  const fs::path json_final = s.dir / "dataset.json";
+  write_smplx_params((s.tmp / "smplx" / "params.npz").string(), s.params);
+  if (s.with_truth) write_smplx_params((s.tmp / "smplx" / "params_true.npz").string(), s.truth);
+
+  bool is_static = true;
+  const std::string first = camera_to_json(s.cameras.front());
+  for (const Camera& c : s.cameras) is_static = is_static && camera_to_json(c) == first;
+  ojson root;
+  root["format"] = kDatasetFormat;
+  root["version"] = kDatasetVersion;
+  root["width"] = s.width;
+  root["height"] = s.height;
+  root["fps"] = s.fps;
+  root["gender"] = s.gender;
+  root["source"] = s.source;
+  if (is_static) root["camera"] = camera_object(s.cameras.front());
+  root["smplx"] = "smplx/params.npz";
+  if (s.with_truth) root["smplx_true"] = "smplx/params_true.npz";
+  if (!is_static)
+    for (size_t i = 0; i < s.frames.size(); ++i) s.frames[i]["camera"] = camera_object(s.cameras[i]);
+  root["frames"] = s.frames;
+  // One line per top-level key and per frame: readable, and diffs stay small.
+  std::string text = "{\n";
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    text += " " + ojson(it.key()).dump() + ": ";
+    if (it.key() == "frames") {
+      text += "[\n";
+      for (size_t i = 0; i < it->size(); ++i) text += "  " + (*it)[i].dump() + (i + 1 < it->size() ? ",\n" : "\n");
+      text += " ]";
+    } else {
+      text += it->dump();
+    }
+    text += std::next(it) != root.end() ? ",\n" : "\n";
+  }
+  text += "}\n";
+  const std::string json_tmp = (s.tmp / "dataset.json").string();
+  write_atomically(json_tmp, [&](const std::string& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    if (!f) fail(json_final.string(), "cannot open for writing");
+    f << text;
+    f.close();
+    if (!f) fail(json_final.string(), "write error");
+  });
+
+  // Move into place; an existing dataset is swapped out first and removed after.
+  std::error_code ec;
+  if (fs::exists(s.dir, ec)) {
+    if (!is_empty_dir(s.dir) && !is_dataset_dir(s.dir))
+      fail(s.dir.string(), "exists, is not empty and holds no dataset.json: refusing to replace it");
+    const fs::path old = s.dir.string() + ".old-" + std::to_string(::getpid());
+    fs::remove_all(old, ec);
+    fs::rename(s.dir, old, ec);
+    if (ec) fail(s.dir.string(), "cannot move the previous dataset aside: " + ec.message());
+    fs::rename(s.tmp, s.dir, ec);
+    if (ec) {
+      std::error_code ec2;
+      fs::rename(old, s.dir, ec2);
+      fail(s.dir.string(), "cannot move the finished dataset into place: " + ec.message());
+    }
+    fs::remove_all(old, ec);
+  } else {
+    fs::rename(s.tmp, s.dir, ec);
+    if (ec) fail(s.dir.string(), "cannot move the finished dataset into place: " + ec.message());
+  }
+  s.finished = true;
+}
+
+void write_dataset(const Dataset& ds, const std::string& dir) {
+  DatasetWriter w(dir, ds.width, ds.height, ds.fps, ds.gender, ds.source);
+  if (!ds.params_true.empty() && ds.params_true.size() != ds.frames.size())
+    fail(dir, std::to_string(ds.params_true.size()) + " true parameter sets for " + std::to_string(ds.frames.size()) +
+                  " frames");
+  for (size_t i = 0; i < ds.frames.size(); ++i) {
+    const DatasetFrame& f = ds.frames[i];
+    const SmplxParams* truth = ds.params_true.empty() ? nullptr : &ds.params_true[i];
+    if (!f.image.empty() && !f.mask.empty()) {
+      w.add(f, f.image, f.mask, truth);
+    } else {
+      if (!ds.loader) fail(dir, "frame " + std::to_string(i) + " has no pixels and the dataset no loader");
+      Image rgb, mask;
+      ds.loader(int(i), rgb, mask);
+      w.add(f, rgb, mask, truth);
+    }
+  }
+  w.finish();
+}
+
+}  // namespace haha

@@ -1,0 +1,112 @@
+// Readers for the data formats users have (../shared/notes/method.md section 6), each
+// converting to the native Dataset (data/dataset.h) or, for motions, to SMPL-X frames.
+// Readers validate every file of the selected frames before returning (missing frames,
+// mismatched counts between images / masks / parameters, wrong array shapes, unreadable
+// images, non-finite values): each problem is one haha::Error naming the offending file.
+// Pixels are produced later, frame by frame, through Dataset::loader (decode, mask, crop,
+// resize), so converting long videos does not hold every frame in memory.
+//
+// Source intrinsics put pixel centres at integers (OpenCV); the Dataset's cameras put them
+// at +0.5 (render/camera.h), so cx, cy gain 0.5. Crops subtract the crop origin from
+// cx, cy; resizing by s scales fx, fy, cx, cy by s (exact in the pixel-edge convention).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "body/body_model.h"
+#include "body/smplx_params.h"
+#include "data/dataset.h"
+
+namespace haha {
+
+// Python-style slice of frame indices [start, end) step `step`; end < 0 = to the end.
+// Like Python, an end beyond the available frames is clipped.
+struct FrameRange {
+  int start = 0, end = -1, step = 1;
+  std::vector<int> indices(int available) const;
+  std::string str() const;  // "start:end:step"
+};
+// "start:end:step", "start:end" or "start:" (throws naming `where`).
+FrameRange parse_frame_range(const std::string& s, const std::string& where);
+
+struct ConvertOptions {
+  int max_side = 0;                  // > 0: resize so the longer side has this many pixels
+  int every = 1;                     // keep every k-th frame (X-Humans takes, SMPLify-X folders)
+  int max_frames = 0;                // > 0: at most this many frames per take / split
+  const BodyModel* model = nullptr;  // for PCA hand poses and a non-flat hand mean
+  bool flat_hand_mean = true;        // false: add the model's hands_mean to hand poses
+  double fps = 30;
+  std::string gender;                // empty: from the data when it says, else neutral
+};
+
+// X-Humans takes: TAKE/render/image/color_%06d.png, TAKE/render/depth/depth_%06d.tiff,
+// TAKE/render/cameras.npz (intrinsic (3, 3), extrinsic (N, 4, 4) world -> camera, N =
+// number of frames, row i = i-th frame in frame-number order), TAKE/SMPLX/mesh-f%05d_smplx.pkl
+// (dict of 1-D arrays: global_orient 3, transl 3, body_pose 63, left/right_hand_pose 45
+// (or PCA with a model), jaw/leye/reye_pose 3, expression, betas; (1, D) accepted).
+// Mask: depth.max() - depth > depth_threshold (the release's rule, depth as stored).
+// square_crop: centre square crop as in the release. Gender: a gender.txt in the take's
+// parent (subject) folder, if present. Frames of train_takes are "train", of test_takes "test".
+struct XHumansOptions : ConvertOptions {
+  std::vector<std::string> train_takes, test_takes;
+  bool square_crop = true;
+  float depth_threshold = 700.0f;
+};
+Dataset read_xhumans(const XHumansOptions& opt);
+
+// PeopleSnapshot as preprocessed by InstantAvatar: DIR/cameras.npz (intrinsic (3, 3),
+// extrinsic (4, 4) world -> camera, height, width), DIR/images/image_%04d.png,
+// DIR/masks/mask_%04d.npy ((H, W) bool / uint8 / float), DIR/poses/anim_nerf_{train,test}.npz
+// (SMPL: betas (1, 10) or (10,), global_orient (N, 3), body_pose (N, 69) (or (N, 63)), transl (N, 3)),
+// row i of a split = i-th frame of its FrameRange over the sorted images. SMPL joints
+// 0-21 mean the same as SMPL-X's: body_pose[:63] is kept, SMPL's hand joints 22/23 are
+// dropped, SMPL-X hands/jaw/eyes are at rest (zero, flat hand mean). SMPL betas live in a
+// different shape space and are not carried over (SMPL-X betas start at zero; training
+// fits them). The val split is not read.
+struct PeopleSnapshotOptions : ConvertOptions {
+  std::string dir;
+  FrameRange train{0, 456, 4}, test{456, 676, 4};  // InstantAvatar's male-3-casual split
+};
+Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt);
+
+// SMPLify-X style per-frame pickles: DIR/images/<stem>.{png,jpg,jpeg}, DIR/masks/<stem>.{png,npy}
+// and one pickle per image, either DIR/results/<stem>/000.pkl (SMPLify-X's output tree) or
+// DIR/smplx/<stem>.pkl. Pickle keys: the SMPL-X parameter names ((1, D) or (D,); hands full
+// 45 or PCA coefficients, which need `model`; body_pose 63 (a 32-value VPoser code is an
+// error)), camera_rotation (3, 3), camera_translation (3), optional camera_focal_length_x/_y
+// (or focal_length) and camera_center (2) in pixels; else `focal` and the image centre, as
+// SMPLify-X assumes. SMPLify-X fits usually use a non-flat hand mean (its default): pass
+// flat_hand_mean = false with a model then. Frames: `train` / `test` ranges over the
+// sorted images (default: all frames train).
+struct SmplifyxOptions : ConvertOptions {
+  std::string dir;
+  double focal = 5000.0;
+  FrameRange train{0, -1, 1};
+  FrameRange test{0, 0, 1};  // empty
+};
+Dataset read_smplifyx(const SmplifyxOptions& opt);
+
+// A motion for animation.
+struct Motion {
+  std::vector<SmplxParams> frames;
+  double fps = 30;
+  std::string source;  // file it came from
+};
+
+// AMASS: SMPL-X `*_stageii.npz` (poses (T, 165) in SMPL-X order, trans (T, 3), betas,
+// mocap_frame_rate) or SMPL+H (poses (T, 156) = 22 body joints + 2 x 15 hand joints, no
+// face; mocap_framerate). Hand poses assume a flat hand mean (values used as stored).
+// SMPL+H betas are a different shape space and are dropped; SMPL-X betas are kept.
+Motion read_amass(const std::string& path);
+
+// A motion file of either kind: AMASS (has `poses`) or a native SMPL-X parameter file
+// (io/smplx_params_io.h; fps from an optional `mocap_frame_rate`/`fps` scalar, else 30).
+Motion read_motion(const std::string& path, const BodyModel* model = nullptr);
+
+// Shared by the readers: the SMPL-X parameters of one fit dict (pickle). `where` names the
+// file in errors. Missing pose groups are zero; global_orient and body_pose are required.
+class Pickle;
+SmplxParams smplx_params_from_pickle(const Pickle& p, const ConvertOptions& opt);
+
+}  // namespace haha

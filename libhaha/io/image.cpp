@@ -1,0 +1,191 @@
+#include "io/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace haha {
+namespace {
+
+// OIIO messages may span lines; errors here are one line.
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s.empty() ? "unknown error" : s;
+}
+
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) fail(path, "cannot read image: no such file");
+  // Alpha is data here (masks, RGBA frames): no (un)premultiplication on the way.
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
+  if (!in) fail(path, "cannot read image: " + one_line(OIIO::geterror()));
+  const OIIO::ImageSpec& s = in->spec();
+  if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) fail(path, "cannot read image: empty image");
+  if (int64_t(s.width) * s.height * s.nchannels > (int64_t(1) << 31)) fail(path, "image too large");
+  return in;
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+}  // namespace
+
+ImageInfo read_image_info(const std::string& path) {
+  auto in = open_input(path);
+  ImageInfo info;
+  info.width = in->spec().width;
+  info.height = in->spec().height;
+  info.channels = in->spec().nchannels;
+  info.format = in->format_name();
+  in->close();
+  return info;
+}
+
+Image read_image(const std::string& path) {
+  auto in = open_input(path);
+  const OIIO::ImageSpec& s = in->spec();
+  Image img(s.width, s.height, s.nchannels);
+  // Reading as FLOAT normalises integer types to [0, 1].
+  if (!in->read_image(0, 0, 0, s.nchannels, OIIO::TypeDesc::FLOAT, img.data.data()))
+    fail(path, "cannot decode image: " + one_line(in->geterror()));
+  in->close();
+  return img;
+}
+
+Image read_depth(const std::string& path) {
+  auto in = open_input(path);
+  const OIIO::ImageSpec& s = in->spec();
+  Image img(s.width, s.height, 1);
+  const size_t n = size_t(s.width) * s.height;
+  const OIIO::TypeDesc t = s.format;
+  auto read_as = [&](OIIO::TypeDesc type, auto* buf) {
+    if (!in->read_image(0, 0, 0, 1, type, buf)) fail(path, "cannot decode depth image: " + one_line(in->geterror()));
+  };
+  if (t.basetype == OIIO::TypeDesc::UINT8 || t.basetype == OIIO::TypeDesc::INT8 ||
+      t.basetype == OIIO::TypeDesc::UINT16 || t.basetype == OIIO::TypeDesc::INT16) {
+    // Read in the stored type (OIIO would rescale when converting), then widen.
+    if (t.basetype == OIIO::TypeDesc::UINT16) {
+      std::vector<uint16_t> raw16(n);
+      read_as(OIIO::TypeDesc::UINT16, raw16.data());
+      for (size_t i = 0; i < n; ++i) img.data[i] = float(raw16[i]);
+    } else if (t.basetype == OIIO::TypeDesc::UINT8) {
+      std::vector<uint8_t> raw8(n);
+      read_as(OIIO::TypeDesc::UINT8, raw8.data());
+      for (size_t i = 0; i < n; ++i) img.data[i] = float(raw8[i]);
+    } else if (t.basetype == OIIO::TypeDesc::INT16) {
+      std::vector<int16_t> r(n);
+      read_as(OIIO::TypeDesc::INT16, r.data());
+      for (size_t i = 0; i < n; ++i) img.data[i] = float(r[i]);
+    } else {
+      std::vector<int8_t> r(n);
+      read_as(OIIO::TypeDesc::INT8, r.data());
+      for (size_t i = 0; i < n; ++i) img.data[i] = float(r[i]);
+    }
+  } else if (t.basetype == OIIO::TypeDesc::UINT32 || t.basetype == OIIO::TypeDesc::INT32) {
+    std::vector<uint32_t> r(n);
+    read_as(t, r.data());
+    for (size_t i = 0; i < n; ++i)
+      img.data[i] = t.basetype == OIIO::TypeDesc::INT32 ? float(int32_t(r[i])) : float(r[i]);
+  } else {
+    read_as(OIIO::TypeDesc::FLOAT, img.data.data());
+  }
+  in->close();
+  return img;
+}
+
+void write_image(const std::string& path, const Image& img, bool exr_full_float) {
+  if (img.width <= 0 || img.height <= 0 || img.channels < 1 || img.channels > 4 ||
+      img.data.size() != size_t(img.width) * img.height * img.channels)
+    fail(path, "cannot write image: bad image size " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                   "x" + std::to_string(img.channels) + " with " + std::to_string(img.data.size()) + " values");
+  for (size_t i = 0; i < img.data.size(); ++i)
+    if (!std::isfinite(img.data[i]))
+      fail(path, "cannot write image: non-finite value at pixel " + std::to_string(i / size_t(img.channels)));
+  const std::string ext = lower_extension(path);
+  OIIO::TypeDesc type;
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") {
+    type = OIIO::TypeDesc::UINT8;
+    if (ext != ".png" && img.channels != 1 && img.channels != 3)
+      fail(path, "cannot write image: jpeg takes 1 or 3 channels, not " + std::to_string(img.channels));
+  } else if (ext == ".exr") {
+    type = exr_full_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF;
+  } else if (ext == ".tif" || ext == ".tiff") {
+    type = OIIO::TypeDesc::FLOAT;
+  } else {
+    fail(path, "cannot write image: unknown extension '" + ext + "' (use .png, .jpg, .exr or .tiff)");
+  }
+  write_atomically(path, [&](const std::string& tmp) {
+    // The plugin is chosen from the final name; the bytes go to the temporary file.
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out) fail(path, "cannot write image: " + one_line(OIIO::geterror()));
+    OIIO::ImageSpec spec(img.width, img.height, img.channels, type);
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    if (type == OIIO::TypeDesc::UINT8 && ext != ".png") spec.attribute("Compression", "jpeg:95");
+    if (!out->open(tmp, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, img.data.data()) || !out->close())
+      fail(path, "cannot write image: " + one_line(out->geterror()));
+  });
+}
+
+Image resize_area(const Image& src, int w, int h) {
+  if (src.empty() || w <= 0 || h <= 0) throw Error("resize_area: empty image or target size");
+  // Per output index, the source pixels it overlaps and their weights (sum 1).
+  struct Tap { int i; float w; };
+  auto taps = [](int n_src, int n_dst) {
+    std::vector<std::vector<Tap>> t(static_cast<size_t>(n_dst));
+    const double scale = double(n_src) / n_dst;
+    for (int o = 0; o < n_dst; ++o) {
+      const double a = o * scale, b = (o + 1) * scale;
+      for (int i = int(std::floor(a)); i < std::min(n_src, int(std::ceil(b))); ++i) {
+        const double overlap = std::min(b, double(i + 1)) - std::max(a, double(i));
+        if (overlap > 0) t[size_t(o)].push_back({i, float(overlap / scale)});
+      }
+    }
+    return t;
+  };
+  const auto tx = taps(src.width, w), ty = taps(src.height, h);
+  const int c = src.channels;
+  Image rows(w, src.height, c);
+  for (int y = 0; y < src.height; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int k = 0; k < c; ++k) {
+        float acc = 0;
+        for (const Tap& t : tx[size_t(x)]) acc += t.w * src.at(t.i, y, k);
+        rows.at(x, y, k) = acc;
+      }
+  Image out(w, h, c);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int k = 0; k < c; ++k) {
+        float acc = 0;
+        for (const Tap& t : ty[size_t(y)]) acc += t.w * rows.at(x, t.i, k);
+        out.at(x, y, k) = acc;
+      }
+  return out;
+}
+
+Image crop(const Image& src, int x0, int y0, int w, int h) {
+  if (x0 < 0 || y0 < 0 || w <= 0 || h <= 0 || x0 + w > src.width || y0 + h > src.height)
+    throw Error("crop: rectangle outside the image");
+  Image out(w, h, src.channels);
+  for (int y = 0; y < h; ++y)
+    std::copy_n(&src.data[(size_t(y0 + y) * src.width + x0) * src.channels], size_t(w) * src.channels,
+                &out.data[size_t(y) * w * src.channels]);
+  return out;
+}
+
+}  // namespace haha

@@ -1,0 +1,50 @@
+// Image files through OpenImageIO (png, jpg, exr, tiff, anything else OIIO reads).
+// Pixels are float, row-major, top row first, channels interleaved. Values are the stored
+// (display-encoded) values: no colour-space conversion happens on read or write.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace haha {
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<float> data;  // width * height * channels
+
+  Image() = default;
+  Image(int w, int h, int c, float fill = 0.0f) : width(w), height(h), channels(c), data(size_t(w) * h * c, fill) {}
+  bool empty() const { return data.empty(); }
+  float& at(int x, int y, int c) { return data[(size_t(y) * width + x) * channels + c]; }
+  float at(int x, int y, int c) const { return data[(size_t(y) * width + x) * channels + c]; }
+};
+
+struct ImageInfo {
+  int width = 0, height = 0, channels = 0;
+  std::string format;  // OIIO's format name, e.g. "png", "tiff"
+};
+
+// Opens the file and reads its header only. Throws haha::Error "path: cannot read image: ..."
+ImageInfo read_image_info(const std::string& path);
+
+// Reads all channels. Integer pixel types are normalised to [0, 1] (8-bit / 255, 16-bit /
+// 65535); float and half pixels are kept as stored.
+Image read_image(const std::string& path);
+
+// Reads the first channel with integer types NOT normalised (a uint16 depth in millimetres
+// stays in millimetres); float types as stored. For depth maps (X-Humans tiff).
+Image read_depth(const std::string& path);
+
+// Writes by extension: .png/.jpg/.jpeg 8-bit (values clamped to [0, 1], rounded; jpeg
+// quality 95); .exr half-float (`exr_full_float`: float32); .tif/.tiff float32. 1, 2, 3 or 4
+// channels (jpeg: 1 or 3). Non-finite values are an error naming the file. Atomic.
+void write_image(const std::string& path, const Image& img, bool exr_full_float = false);
+
+// Area-weighted resampling: each output pixel is the exact average of the source area it
+// covers (pixel-edge convention, so pixel coordinates scale by w/src.width, h/src.height).
+Image resize_area(const Image& src, int w, int h);
+
+// Sub-rectangle [x0, x0 + w) x [y0, y0 + h); must lie inside the image.
+Image crop(const Image& src, int x0, int y0, int w, int h);
+
+}  // namespace haha
