@@ -1,0 +1,191 @@
+// The synthetic subject: the project's embedded sample (`haha synth`). A clothed person
+// built on any SMPL-X-layout body model (normally the procedural body), rendered as a
+// monocular video in the native dataset format (data/dataset.h).
+//
+// What it is made of, and why (HAHA = textured mesh + Gaussians where the mesh fails):
+//  - a UV texture on the body's own atlas (vt, ft): skin, a checked shirt with a chest
+//    emblem and lettering on the back, striped trousers, shoes, a face (eyes, brows, lips),
+//    a watch on the left wrist, finger nails, hair colour on the scalp. It is painted from
+//    the 3D rest surface (position, normal, skinning-weight groups), so it works for any
+//    body with a UV map. This part is exactly representable by a texture on that atlas.
+//  - geometry that LEAVES the body surface and needs Gaussians: a hair shell (the scalp
+//    offset outward by up to ~3 cm, tapering to the hairline; body UVs and texture), a
+//    ponytail (a tube skinned rigidly to the head) and a pleated, flared skirt (a frustum
+//    from the waist to above the knees, skinned to the pelvis and both hips with smooth
+//    weights that follow the thighs). Skirt and ponytail use a second texture (tartan,
+//    hair streaks and a hair tie).
+//  - motions: training = turning in place (one full turn of global_orient about the
+//    vertical axis) with arm swings, elbow bends, head motion and finger curls; test =
+//    novel poses (arms raised / forward, knees bent, spread / pointing / fist hands). Every
+//    test pose differs from every training pose by at least kSynthMinPoseGap at some joint.
+//  - ground truth rendered from this clothed geometry with the mesh rasterizer (supersampled
+//    and box-filtered, black background, soft coverage masks), never from an avatar.
+//  - a static OpenCV camera ~2.8 m in front of the subject (body Y up -> camera y down),
+//    focal chosen so every frame's clothed subject fits with a margin.
+// Everything is deterministic for a seed.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "body/body_model.h"
+#include "body/lbs.h"
+#include "body/procedural_body.h"
+#include "body/smplx_params.h"
+#include "io/image.h"
+#include "render/camera.h"
+#include "render/mesh_raster.h"
+
+namespace haha {
+
+// ---------------------------------------------------------------------------------------
+// The clothed subject (geometry on the shaped rest body + textures).
+
+// A mesh that is not the body, skinned with the body's joint transforms.
+struct SynthMesh {
+  std::string name;             // "hair", "ponytail", "skirt"
+  std::vector<float> rest;      // (V, 3) rest-pose positions (on the shaped rest body)
+  std::vector<int32_t> faces;   // (F, 3)
+  std::vector<float> vt;        // (T, 2) UVs, v up (body convention)
+  std::vector<int32_t> ft;      // (F, 3) UV index per face corner
+  int texture = 0;              // 0: SynthSubject::body_texture, 1: garment_texture
+  // Skinning weights, CSR: vertex v uses entries [w_start[v], w_start[v + 1]).
+  std::vector<int32_t> w_start, w_joint;
+  std::vector<float> w_value;
+  int num_verts() const { return int(rest.size() / 3); }
+  int num_faces() const { return int(faces.size() / 3); }
+};
+
+struct SynthSubjectOptions {
+  uint64_t seed = 0;       // colours and pattern details
+  int texture_size = 512;  // body atlas side; the garment atlas is texture_size x texture_size/2
+  bool hair = true, ponytail = true, skirt = true;
+};
+
+struct SynthSubject {
+  std::vector<float> betas;          // the subject's shape (zeros: the model's template)
+  std::vector<float> rest_verts;     // (V, 3) shaped rest body
+  std::vector<float> rest_joints;    // (55, 3)
+  std::vector<SynthMesh> meshes;     // hair, ponytail, skirt (those enabled)
+  Image body_texture;                // (S, S, 3) on the body's UV atlas
+  Image garment_texture;             // (S/2, S, 3): skirt (upper part), ponytail (lower part)
+};
+
+// Builds the subject on `body` (which needs vt/ft). Throws haha::Error naming the model's
+// source if it has no UV map or the texture size is outside [16, 8192].
+SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions& opt = {});
+
+// ---------------------------------------------------------------------------------------
+// Motions.
+
+// Minimum, over all (test, train) pairs, of the largest per-joint rotation difference
+// guaranteed by the motion design (radians, 20 degrees).
+constexpr double kSynthMinPoseGap = 0.349;
+
+struct SynthMotion {
+  std::vector<SmplxParams> train, test;  // true parameters; feet on the rest floor
+};
+
+// Frames are deterministic for (body, counts, seed). Frame i of train turns by
+// 360 * i / n degrees about the vertical axis (frame 0 faces the camera).
+SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject, int train_frames, int test_frames,
+                              uint64_t seed);
+
+// Largest geodesic angle (radians) between the two poses' local rotations over the
+// articulated joints 1..54 (global orientation excluded: it is the viewpoint).
+double pose_distance(const SmplxParams& a, const SmplxParams& b);
+
+// Fit error imitation: Gaussian noise of standard deviation sigma added to every pose
+// value except the eye joints (radians) and to transl (metres). Deterministic for seed.
+std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, double sigma, uint64_t seed);
+
+// ---------------------------------------------------------------------------------------
+// Rendering.
+
+enum SynthPart : unsigned {
+  kSynthBody = 1u,
+  kSynthHair = 2u,
+  kSynthPonytail = 4u,
+  kSynthSkirt = 8u,
+  kSynthAll = 15u,
+};
+
+// Renders the subject; holds the LBS and scratch buffers (not thread-safe: one per thread;
+// copies are cheap before first use and share the LBS data). `body` and `subject` must
+// outlive it.
+class SynthRenderer {
+ public:
+  SynthRenderer(const BodyModel& body, const SynthSubject& subject);
+
+  // Posed vertices of the selected parts, concatenated (body first, then subject.meshes
+  // in order), world space including transl.
+  void pose(const SmplxParams& p, unsigned parts, std::vector<float>& verts);
+
+  // Anti-aliased render: the image is rasterized at supersample x the camera's size and
+  // box-filtered. rgb (H, W, 3) on black; mask (H, W, 1) = covered fraction of subsamples.
+  void render(const Camera& cam, const SmplxParams& p, int supersample, unsigned parts, Image& rgb, Image& mask);
+
+ private:
+  const BodyModel& body_;
+  const SynthSubject& subject_;
+  Lbs<float> lbs_;
+  LbsCache<float> cache_;
+  std::vector<float> verts_;
+  std::vector<int32_t> faces_;
+  unsigned faces_parts_ = 0;
+  struct Range {
+    int first_face, num_faces, texture;
+    const float* vt;
+    const int32_t* ft;
+  };
+  std::vector<Range> ranges_;
+  MeshRaster raster_;
+};
+
+// Static camera looking at the subject along -Z from `distance` metres (world +Z side),
+// level, principal point at the image centre, focal length such that every vertex of every
+// given frame projects inside the central `fill` fraction of the image.
+// Frames are posed in parallel on copies of `renderer`.
+Camera synth_camera(const SynthRenderer& renderer, const std::vector<const SmplxParams*>& frames, int size,
+                    double distance = 2.8, double fill = 0.9);
+
+// ---------------------------------------------------------------------------------------
+// The dataset (`haha synth`).
+
+struct SynthOptions {
+  int size = 128;           // image side in pixels
+  int train_frames = 40;
+  int test_frames = 10;
+  uint64_t seed = 0;
+  double fit_noise = 0;     // sigma of perturb_fits (0: fits are the true parameters)
+  int supersample = 3;      // subsamples per pixel side
+  int texture_size = 0;     // 0: automatic (512 up to 256 px, 1024 up to 512 px, else 2048)
+  double camera_distance = 2.8;
+  int sheet_train = 40, sheet_test = 10;  // frames shown on the contact sheet (evenly spaced)
+};
+
+// Throws haha::Error "--size: ...", "--frames: ...", ... for out-of-range options.
+void validate_synth_options(const SynthOptions& opt);
+
+// The body `haha synth` uses: `path` loaded when given, else the procedural body.
+BodyModel synth_body(const std::string& path, BodyResolution resolution, uint64_t seed);
+
+struct SynthSummary {
+  Camera camera;
+  int train_frames = 0, test_frames = 0;
+  int texture_size = 0;
+  double min_pose_gap = 0;  // measured min over (test, train) pairs of pose_distance
+};
+
+// Renders the whole dataset into `dir` through DatasetWriter, plus dir/contact_sheet.png,
+// dir/synth_texture.png (the body atlas: what an ideal learned texture holds) and, when
+// `save_body` is set, dir/body_model.npz (the body used). All of it is assembled beside
+// `dir` and moved into place at the end: a failure leaves `dir` untouched. An existing
+// `dir` is replaced only if it is empty or holds a dataset.json. `log` (may be null)
+// receives progress lines.
+SynthSummary write_synth_dataset(const std::string& dir, const BodyModel& body, const SynthOptions& opt,
+                                 bool save_body, void (*log)(const std::string&) = nullptr);
+
+}  // namespace haha
