@@ -7,10 +7,14 @@
 #include <string>
 
 #include "command.h"
+#include "core/device.h"
 #include "core/error.h"
 #include "io/camera_json.h"
 #include "io/image.h"
 #include "io/ply_3dgs.h"
+#if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
+#include "cuda/gaussian_raster_cuda.h"
+#endif
 
 namespace {
 
@@ -34,7 +38,7 @@ haha::Vec3f parse_background(const std::string& s) {
 
 HAHA_COMMAND(render_ply) {
   struct Opts {
-    std::string scene, camera, out, background = "0,0,0";
+    std::string scene, camera, out, background = "0,0,0", device = "cpu";
     bool antialiased = false;
   };
   auto o = std::make_shared<Opts>();
@@ -46,12 +50,21 @@ HAHA_COMMAND(render_ply) {
   sub->add_option("--out", o->out, "output image: .png/.jpg (8-bit, clamped), .exr, .tif (float)")->required();
   sub->add_option("--background", o->background, "background colour r,g,b in [0, 1]")->capture_default_str();
   sub->add_flag("--antialiased", o->antialiased, "mip-splatting opacity compensation (off in reference 3DGS)");
+  sub->add_option("--device", o->device, "cpu or cuda (the same rasterizer on the GPU)")->capture_default_str();
   sub->callback([o] {
+    const haha::Device device = haha::parse_device(o->device);
     const haha::Vec3f bg = parse_background(o->background);
     const haha::Camera cam = haha::read_camera_json(o->camera);
     const haha::GaussianPly scene = haha::read_ply_3dgs(o->scene);
     haha::Image img(cam.width, cam.height, 3);
-    img.data = haha::render_ply_image(scene, cam, bg, o->antialiased);
+    if (device == haha::Device::cuda) {
+#if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
+      const haha::ActivatedPly a = haha::activate(scene);
+      img.data = haha::cuda::render_gaussians_image_cuda(a.inputs(scene), cam, bg, o->antialiased);
+#endif
+    } else {
+      img.data = haha::render_ply_image(scene, cam, bg, o->antialiased);
+    }
     haha::write_image(o->out, img);
     std::printf("%s: %dx%d, %d Gaussians (SH degree %d)\n", o->out.c_str(), cam.width, cam.height, scene.size(),
                 scene.sh_degree);

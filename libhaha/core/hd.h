@@ -10,3 +10,13 @@
 #define HAHA_HD inline
 #define HAHA_DEVICE_CODE 0
 #endif
+
+namespace haha {
+// Accumulation policy of kernels that scatter-add into shared buffers: the CPU launchers
+// own their destination (per-thread buffers) and add plainly; CUDA launchers pass an
+// atomic policy (cuda/device_util.cuh). Same maths, same operation order per item.
+struct PlainAdd {
+  template <class T>
+  HAHA_HD void operator()(T* dst, T v) const { *dst += v; }
+};
+}  // namespace haha

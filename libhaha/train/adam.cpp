@@ -47,20 +47,10 @@ int Adam::group(const std::string& name) const {
 void Adam::step(int gi, float* params, const float* grads) {
   Group& g = groups_.at(size_t(gi));
   ++g.t;
-  const double b1 = config_.beta1, b2 = config_.beta2;
-  const float step_size = float(g.lr / (1.0 - std::pow(b1, double(g.t))));
-  const float inv_sqrt_bc2 = float(1.0 / std::sqrt(1.0 - std::pow(b2, double(g.t))));
-  // (1 - beta) in double, as torch does in Python: 1 - 0.999f is off by 1e-5 relative.
-  const float fb1 = float(b1), fb2 = float(b2), c1 = float(1.0 - b1), c2 = float(1.0 - b2);
-  const float eps = float(config_.eps);
+  const AdamStepCoeffs k = adam_step_coeffs(config_, g.lr, g.t);
   float* m = g.m.data();
   float* v = g.v.data();
-  parallel_for(int64_t(g.m.size()), [&](int64_t i) {
-    const float gr = grads[i];
-    m[i] = fb1 * m[i] + c1 * gr;
-    v[i] = fb2 * v[i] + c2 * gr * gr;
-    params[i] -= step_size * m[i] / (std::sqrt(v[i]) * inv_sqrt_bc2 + eps);
-  });
+  parallel_for(int64_t(g.m.size()), [&](int64_t i) { adam_update(params[i], m[i], v[i], grads[i], k); });
 }
 
 void Adam::reindex(int gi, const std::vector<int64_t>& source) {

@@ -9,10 +9,13 @@
 //   p -= lr / (1 - b1^t) * m / (sqrt(v) / sqrt(1 - b2^t) + eps)
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
+
+#include "core/hd.h"
 
 namespace haha {
 
@@ -21,6 +24,30 @@ struct AdamConfig {
   double beta2 = 0.999;
   double eps = 1e-15;  // 3DGS's value (torch's default is 1e-8)
 };
+
+// The float constants of one update with learning rate lr at step count t (>= 1), and the
+// per-element update: the body of Adam::step, shared with the CUDA launcher.
+struct AdamStepCoeffs {
+  float step_size, inv_sqrt_bc2, b1, b2, c1, c2, eps;
+};
+inline AdamStepCoeffs adam_step_coeffs(const AdamConfig& config, double lr, int64_t t) {
+  const double b1 = config.beta1, b2 = config.beta2;
+  AdamStepCoeffs k;
+  k.step_size = float(lr / (1.0 - std::pow(b1, double(t))));
+  k.inv_sqrt_bc2 = float(1.0 / std::sqrt(1.0 - std::pow(b2, double(t))));
+  // (1 - beta) in double, as torch does in Python: 1 - 0.999f is off by 1e-5 relative.
+  k.b1 = float(b1);
+  k.b2 = float(b2);
+  k.c1 = float(1.0 - b1);
+  k.c2 = float(1.0 - b2);
+  k.eps = float(config.eps);
+  return k;
+}
+HAHA_HD void adam_update(float& param, float& m, float& v, float grad, const AdamStepCoeffs& k) {
+  m = k.b1 * m + k.c1 * grad;
+  v = k.b2 * v + k.c2 * grad * grad;
+  param -= k.step_size * m / (std::sqrt(v) * k.inv_sqrt_bc2 + k.eps);
+}
 
 // 3DGS's position schedule (get_expon_lr_func): log-linear from lr_init at step 0 to
 // lr_final at step max_steps, constant lr_final after it; optional warm-up scales it by
