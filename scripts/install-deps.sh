@@ -17,3 +17,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+# The Khronos glTF validator (npm, pinned by tools/validator/package-lock.json) for the format tests.
+if [ ! -d "$(dirname "$0")/../tools/validator/node_modules/gltf-validator" ]; then
+  npm ci --prefix "$(dirname "$0")/../tools/validator" --no-audit --no-fund --loglevel=error >/dev/null
+fi

@@ -43,7 +43,7 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-void validate(const std::string& path, const MeshView& m, bool with_uv) {
+void validate(const std::string& path, const ExportMesh& m, bool with_uv) {
   if (m.num_verts <= 0 || m.num_faces <= 0 || !m.verts || !m.faces) fail(path, "empty mesh");
   for (int i = 0; i < m.num_verts; ++i)
     for (int c = 0; c < 3; ++c)
@@ -86,7 +86,7 @@ MeshFormat mesh_format_from_path(const std::string& path) {
   fail(path, "unsupported mesh format '" + ext + "' (expected .obj or .ply)");
 }
 
-void write_mesh(const std::string& path, const MeshView& m) {
+void write_mesh(const std::string& path, const ExportMesh& m) {
   const MeshFormat format = mesh_format_from_path(path);
   const bool with_uv = format == MeshFormat::obj && m.uv && m.uv_faces && m.num_uv > 0;
   validate(path, m, with_uv);
@@ -135,7 +135,7 @@ void write_posed_body(const std::string& path, const BodyModel& model, const Smp
   const Lbs<float> lbs(model);
   std::vector<float> verts(size_t(model.num_verts) * 3);
   lbs.forward(params, verts.data(), nullptr, nullptr);
-  MeshView view;
+  ExportMesh view;
   view.verts = verts.data();
   view.num_verts = model.num_verts;
   view.faces = model.faces.data();

@@ -16,7 +16,7 @@ namespace haha {
 //   optional UV map: uv (num_uv, 2) float and uv_faces (num_faces, 3) int32 UV indices
 //   (per face corner, as SMPL-X vt/ft). The UV map goes to .obj only (.ply has no
 //   per-corner UVs).
-struct MeshView {
+struct ExportMesh {
   const float* verts = nullptr;
   int num_verts = 0;
   const int32_t* faces = nullptr;
@@ -34,7 +34,7 @@ MeshFormat mesh_format_from_path(const std::string& path);
 // Validates the buffers (indices in range, finite positions, no repeated vertex in a
 // face, manifold connectivity as OpenMesh needs) and writes the file. Throws haha::Error
 // naming the path and the problem.
-void write_mesh(const std::string& path, const MeshView& mesh);
+void write_mesh(const std::string& path, const ExportMesh& mesh);
 
 // Poses `model` with `params` (float LBS, transl included) and writes the mesh; .obj
 // files carry the model's UV map (vt/ft) when it has one.

@@ -49,8 +49,8 @@ struct Cube {
       ft.insert(ft.end(), {b, b + 2, b + 1, b, b + 3, b + 2});
     }
   }
-  MeshView view(bool with_uv) const {
-    MeshView m;
+  ExportMesh view(bool with_uv) const {
+    ExportMesh m;
     m.verts = v.data();
     m.num_verts = 8;
     m.faces = f.data();
@@ -176,7 +176,7 @@ TEST(MeshExport, PlyIsBinaryAndReadsBack) {
   fs::remove(p);
 }
 
-void expect_error(const std::string& path, const MeshView& m, const std::string& needle) {
+void expect_error(const std::string& path, const ExportMesh& m, const std::string& needle) {
   try {
     write_mesh(path, m);
     ADD_FAILURE() << "no error for " << needle;

@@ -1,0 +1,108 @@
+// `haha pack`: a trained run directory (RUN/avatar.npz + RUN/config.json "model", see
+// format/avatar_npz.h) -> one .glb avatar (format/spec.md).
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "command.h"
+#include "core/error.h"
+#include "format/avatar_npz.h"
+#include "format/avatar_pack.h"
+#include "io/body_model_io.h"
+
+namespace {
+
+// "14" (every key) or "offset=14,rotation=12": bits per named attribute, 0 = float32.
+void parse_bits(const std::string& text, const char* option, std::map<std::string, int*> keys) {
+  auto number = [&](const std::string& s) {
+    char* end = nullptr;
+    const long v = std::strtol(s.c_str(), &end, 10);
+    if (s.empty() || *end != '\0' || v < 0 || v > 30) haha::fail(option, "bits must be an integer in 0..30 (0 = float32), got '" + s + "'");
+    return int(v);
+  };
+  if (text.find('=') == std::string::npos) {
+    const int b = number(text);
+    for (auto& [k, p] : keys) *p = b;
+    return;
+  }
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    if (eq == std::string::npos || !keys.count(key)) {
+      std::string known;
+      for (auto& [k, p] : keys) known += (known.empty() ? "" : ", ") + k;
+      haha::fail(option, "unknown entry '" + item + "' (keys: " + known + ")");
+    }
+    *keys[key] = number(item.substr(eq + 1));
+  }
+}
+
+}  // namespace
+
+HAHA_COMMAND(pack) {
+  struct Opts {
+    std::string run, out, model, gaussian_bits, mesh_bits, texture = "webp";
+    int texture_size = 0, texture_quality = 95;
+    bool lossless = false, splats = false, correctives = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians, Draco)");
+  sub->add_option("run", o->run, "run directory (avatar.npz + config.json naming the body model), or an avatar.npz with --model")
+      ->required();
+  sub->add_option("--out", o->out, "output .glb")->required();
+  sub->add_option("--model", o->model, "body model .npz (default: config.json's \"model\")");
+  sub->add_option("--gaussian-bits", o->gaussian_bits,
+                  "Draco quantization bits of the Gaussians: N for all, or offset=14,rotation=12,scale=10,color=8,opacity=8 "
+                  "(0 = float32)");
+  sub->add_option("--mesh-bits", o->mesh_bits,
+                  "Draco quantization bits of the mesh: N for all, or position=16,normal=10,texcoord=14,weight=12");
+  sub->add_option("--texture", o->texture, "texture image format: png (lossless 8-bit), jpg or webp")->capture_default_str();
+  sub->add_option("--texture-size", o->texture_size, "resample the texture to N x N (default: trained size)");
+  sub->add_option("--texture-quality", o->texture_quality, "jpg/webp quality 1..100")->capture_default_str();
+  sub->add_flag("--lossless", o->lossless, "float32 everywhere + exact texture copy: unpack restores every parameter bit-exact");
+  sub->add_flag("--khr-gaussian-splatting", o->splats,
+                "also store the Gaussians in the rest pose as a KHR_gaussian_splatting primitive (splat viewers)");
+  sub->add_flag("--pose-correctives", o->correctives,
+                "embed the body model's pose-corrective blend shapes (large) so the loader reposes exactly like the trainer");
+  sub->callback([o] {
+    namespace fs = std::filesystem;
+    haha::Avatar avatar;
+    if (fs::is_regular_file(o->run)) {
+      if (o->model.empty()) haha::fail(o->run, "an avatar.npz given directly needs --model (the body model it was trained on)");
+      avatar = haha::load_avatar_npz(o->run);
+      avatar.body = haha::load_body_model(o->model);
+    } else {
+      avatar = haha::load_run_avatar(o->run, o->model);
+    }
+    haha::PackOptions opt;
+    opt.lossless = o->lossless;
+    opt.texture_codec = haha::texture_codec_from_name(o->texture);
+    opt.texture_size = o->texture_size;
+    opt.texture_quality = o->texture_quality;
+    opt.khr_gaussian_splatting = o->splats;
+    opt.pose_correctives = o->correctives;
+    if (o->texture_size < 0) haha::fail("--texture-size", "must be positive");
+    if (!o->gaussian_bits.empty()) {
+      auto& g = opt.gaussian_bits;
+      parse_bits(o->gaussian_bits, "--gaussian-bits",
+                 {{"offset", &g.offset}, {"rotation", &g.rotation}, {"scale", &g.scale}, {"color", &g.color}, {"opacity", &g.opacity}});
+    }
+    if (!o->mesh_bits.empty()) {
+      auto& m = opt.mesh_bits;
+      parse_bits(o->mesh_bits, "--mesh-bits",
+                 {{"position", &m.position}, {"normal", &m.normal}, {"texcoord", &m.texcoord}, {"weight", &m.weight}});
+    }
+    if (o->lossless && (!o->gaussian_bits.empty() || !o->mesh_bits.empty())) {
+      haha::fail("--lossless", "stores float32 everywhere; it cannot be combined with --gaussian-bits/--mesh-bits");
+    }
+    const haha::PackedSizes s = haha::write_avatar_glb(avatar, o->out, opt);
+    std::printf("%s: %zu bytes: %d Gaussians %zu B, mesh (%d vertices, %d faces) %zu B, texture %zu B%s\n", o->out.c_str(),
+                s.total, s.num_gaussians, s.gaussians, s.num_vertices, s.num_faces, s.mesh, s.texture,
+                o->lossless ? " (+ exact copy)" : "");
+  });
+}

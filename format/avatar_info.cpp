@@ -1,0 +1,172 @@
+#include "format/avatar_info.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "body/face_frames.h"
+#include "core/error.h"
+#include "format/avatar_pack.h"
+
+namespace haha {
+
+namespace fs = std::filesystem;
+
+GaussianPly rest_pose_ply(const Avatar& a, int sh_degree) {
+  const int N = a.gaussians.size();
+  const std::vector<float> rest = baked_rest_vertices(a);
+  GaussianPly p;
+  p.sh_degree = sh_degree;
+  p.means.resize(size_t(N) * 3);
+  p.quats.resize(size_t(N) * 4);
+  std::vector<float> scales(size_t(N) * 3);
+  pose_gaussians(rest.data(), a.body, a.face_scale_divisor, a.gaussians, p.means.data(), p.quats.data(), scales.data());
+  const int K = (sh_degree + 1) * (sh_degree + 1);
+  p.sh.assign(size_t(N) * K * 3, 0.0f);
+  p.opacity_logit.resize(size_t(N));
+  p.log_scales.resize(size_t(N) * 3);
+  constexpr double kC0 = 0.28209479177387814;  // SH degree-0 basis constant
+  for (int i = 0; i < N; ++i) {
+    for (int c = 0; c < 3; ++c) p.sh[size_t(i) * K * 3 + c] = float((a.gaussians.color[size_t(i) * 3 + c] - 0.5) / kC0);
+    const double o = std::clamp(double(a.gaussians.opacity[size_t(i)]), 1e-6, 1 - 1e-6);
+    p.opacity_logit[size_t(i)] = float(std::log(o / (1 - o)));
+    for (int k = 0; k < 3; ++k) p.log_scales[size_t(i) * 3 + k] = std::log(std::max(scales[size_t(i) * 3 + k], 1e-30f));
+  }
+  return p;
+}
+
+namespace {
+
+size_t serialized_size(const GaussianPly& p) {
+  static std::atomic<int> counter{0};
+  const fs::path tmp = fs::temp_directory_path() /
+                       ("haha-ply-size-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".ply");
+  write_ply_3dgs(tmp.string(), p);
+  std::error_code ec;
+  const auto n = fs::file_size(tmp, ec);
+  fs::remove(tmp, ec);
+  return size_t(n);
+}
+
+std::string bytes(size_t n) {
+  std::string s = std::to_string(n), out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (i && (s.size() - i) % 3 == 0) out += ',';
+    out += s[i];
+  }
+  return out + " B";
+}
+
+std::string bits_text(const std::map<std::string, int>& bits) {
+  std::string s;
+  for (auto& [k, v] : bits) s += (s.empty() ? "" : " ") + k + "=" + (v > 0 ? std::to_string(v) : std::string("float32"));
+  return s;
+}
+
+}  // namespace
+
+StorageReport storage_report(const UnpackedAvatar& u) {
+  StorageReport r;
+  const PackedSizes& s = u.info.sizes;
+  r.num_gaussians = s.num_gaussians;
+  r.file_bytes = s.total;
+  r.avatar_part_bytes = s.gaussians + s.texture;
+  r.ply_3dgs_bytes = serialized_size(rest_pose_ply(u.avatar, 0));
+  r.ply_3dgs_sh3_bytes = serialized_size(rest_pose_ply(u.avatar, 3));
+  r.paper_bytes = kPaperBytesPerGaussian * size_t(s.num_gaussians) + kPaperTextureBytes;
+  r.avatar_part_vs_paper = double(r.avatar_part_bytes) / double(r.paper_bytes);
+  r.file_vs_paper = double(r.file_bytes) / double(r.paper_bytes);
+  return r;
+}
+
+nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar& u, const StorageReport& r) {
+  const AvatarFileInfo& i = u.info;
+  const PackedSizes& s = i.sizes;
+  nlohmann::json j;
+  j["file"] = path;
+  j["extension"] = {{"name", kAvatarExtension}, {"version", i.version}};
+  j["extensionsUsed"] = i.extensions_used;
+  j["extensionsRequired"] = i.extensions_required;
+  j["counts"] = {{"gaussians", s.num_gaussians},
+                 {"bodyVertices", i.body_vertex_count},
+                 {"gltfVertices", s.num_vertices},
+                 {"faces", s.num_faces},
+                 {"joints", kNumJoints},
+                 {"skinSets", s.skin_sets},
+                 {"maxInfluences", s.max_influences},
+                 {"jointRegressorNonzeros", i.joint_regressor_nonzeros}};
+  j["bytes"] = {{"total", s.total},
+                {"json", s.json},
+                {"mesh", s.mesh},
+                {"skeleton", s.skeleton},
+                {"gaussians", s.gaussians},
+                {"texture", s.texture},
+                {"textureExact", s.texture_exact},
+                {"poseCorrectives", s.pose_correctives},
+                {"splats", s.splats}};
+  j["quantizationBits"] = {{"gaussians", i.gaussian_bits}, {"mesh", i.mesh_bits}};
+  j["scaleEncoding"] = i.scale_encoding;
+  j["rotationEncoding"] = i.rotation_encoding;
+  j["gaussianOrder"] = i.gaussian_order;
+  j["texture"] = {{"mimeType", i.texture_mime}, {"width", i.texture_width}, {"height", i.texture_height},
+                  {"exactFloatCopy", i.texture_exact}};
+  j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
+                          {"trainedWith", i.trained_with_pose_correctives},
+                          {"topologyCrc32", i.topology_crc32}};
+  j["khrGaussianSplatting"] = i.splats;
+  j["subject"] = {{"betas", u.avatar.betas}, {"expression", u.avatar.expression},
+                  {"faceScaleDivisor", u.avatar.face_scale_divisor}};
+  j["storage"] = {{"fileBytes", r.file_bytes},
+                  {"gaussiansPlusTextureBytes", r.avatar_part_bytes},
+                  {"ply3dgsBytes", r.ply_3dgs_bytes},
+                  {"ply3dgsSh3Bytes", r.ply_3dgs_sh3_bytes},
+                  {"paperAccountingBytes", r.paper_bytes},
+                  {"gaussiansPlusTextureVsPaper", r.avatar_part_vs_paper},
+                  {"fileVsPaper", r.file_vs_paper}};
+  return j;
+}
+
+std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u, const StorageReport& r) {
+  const AvatarFileInfo& i = u.info;
+  const PackedSizes& s = i.sizes;
+  std::ostringstream o;
+  char buf[256];
+  o << path << ": " << kAvatarExtension << " v" << i.version << ", " << bytes(s.total) << "\n";
+  std::snprintf(buf, sizeof buf, "%.2f", s.num_gaussians ? double(s.gaussians) / s.num_gaussians : 0.0);
+  o << "  gaussians     " << s.num_gaussians << " (Draco point cloud " << bytes(s.gaussians) << ", " << buf
+    << " B/Gaussian; bits " << bits_text(i.gaussian_bits) << ", scale " << i.scale_encoding << ", rotation "
+    << i.rotation_encoding << ", order " << i.gaussian_order << ")\n";
+  o << "  mesh          " << i.body_vertex_count << " body vertices (" << s.num_vertices << " glTF vertices), "
+    << s.num_faces << " faces, " << s.skin_sets << " skin set(s) for up to " << s.max_influences
+    << " influences (Draco " << bytes(s.mesh) << "; bits " << bits_text(i.mesh_bits) << ")\n";
+  o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";
+  o << "  texture       " << i.texture_mime << " " << i.texture_width << " x " << i.texture_height << " (" << bytes(s.texture) << ")";
+  if (i.texture_exact) o << " + exact float32 copy (" << bytes(s.texture_exact) << ")";
+  o << "\n";
+  o << "  correctives   " << (i.pose_correctives.empty() ? std::string("not embedded") : i.pose_correctives + " (" + bytes(s.pose_correctives) + ")")
+    << (i.trained_with_pose_correctives ? "; trained with them" : "; trained without") << "\n";
+  o << "  splats        " << (i.splats ? "KHR_gaussian_splatting rest-pose primitive (" + bytes(s.splats) + ")" : std::string("none")) << "\n";
+  o << "  JSON          " << bytes(s.json) << "\n";
+  o << "  extensions    used:";
+  for (auto& e : i.extensions_used) o << " " << e;
+  o << "; required:";
+  for (auto& e : i.extensions_required) o << " " << e;
+  o << "\n";
+  o << "storage (issue 6)\n";
+  std::snprintf(buf, sizeof buf, "%.3f", r.file_vs_paper);
+  o << "  this file                          " << bytes(r.file_bytes) << " (" << buf << " x paper)\n";
+  std::snprintf(buf, sizeof buf, "%.3f", r.avatar_part_vs_paper);
+  o << "  Gaussians + texture in this file   " << bytes(r.avatar_part_bytes) << " (" << buf << " x paper)\n";
+  o << "  same Gaussians as 3DGS .ply        " << bytes(r.ply_3dgs_bytes) << " (SH degree 0), "
+    << bytes(r.ply_3dgs_sh3_bytes) << " (SH degree 3 layout)\n";
+  o << "  paper's accounting                 " << bytes(r.paper_bytes) << " (56 B x " << r.num_gaussians
+    << " + 256 x 256 x 3 texture)\n";
+  return o.str();
+}
+
+}  // namespace haha

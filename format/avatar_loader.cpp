@@ -1,0 +1,142 @@
+#include "format/avatar_loader.h"
+
+#include <algorithm>
+
+#include "body/face_frames.h"
+#include "body/lbs.h"
+#include "core/error.h"
+#include "format/avatar_unpack.h"
+#include "format/avatar_validate.h"
+#include "render/merge.h"
+
+namespace haha {
+
+struct AvatarRuntime::State {
+  Avatar avatar;
+  std::unique_ptr<Lbs<float>> lbs;  // points into avatar.body: State never moves (unique_ptr)
+  bool shaped = false;              // body has shape directions: apply the avatar's betas
+  bool wants_correctives = false;   // the avatar was trained with pose correctives
+};
+
+AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
+  validate_avatar(avatar, avatar.body.source.empty() ? "avatar" : avatar.body.source);
+  s_->avatar = std::move(avatar);
+  const BodyModel& b = s_->avatar.body;
+  s_->shaped = has_shape_blend(b);
+  s_->wants_correctives = !b.posedirs.empty();
+  s_->lbs = std::make_unique<Lbs<float>>(b);
+}
+
+AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* model) {
+  UnpackedAvatar u = read_avatar_file(path);
+  AvatarRuntime rt(std::move(u.avatar));
+  rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
+  if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);
+  return rt;
+}
+
+AvatarRuntime::AvatarRuntime(AvatarRuntime&&) noexcept = default;
+AvatarRuntime& AvatarRuntime::operator=(AvatarRuntime&&) noexcept = default;
+AvatarRuntime::~AvatarRuntime() = default;
+
+const Avatar& AvatarRuntime::avatar() const { return s_->avatar; }
+int AvatarRuntime::num_verts() const { return s_->avatar.body.num_verts; }
+int AvatarRuntime::num_gaussians() const { return s_->avatar.gaussians.size(); }
+bool AvatarRuntime::has_pose_correctives() const { return !s_->avatar.body.posedirs.empty(); }
+bool AvatarRuntime::missing_pose_correctives() const { return s_->wants_correctives && !has_pose_correctives(); }
+
+void AvatarRuntime::set_pose_correctives(const BodyModel& model) {
+  BodyModel& b = s_->avatar.body;
+  const std::string where = model.source.empty() ? "body model" : model.source;
+  if (model.num_verts != b.num_verts || model.faces != b.faces) {
+    fail(where, "pose correctives: the body model's mesh (" + std::to_string(model.num_verts) +
+                    " vertices) is not the avatar's (" + std::to_string(b.num_verts) + ")");
+  }
+  if (model.posedirs.size() != size_t(model.num_verts) * 3 * kNumPoseFeatures) fail(where, "posedirs: missing");
+  b.posedirs = model.posedirs;
+  s_->lbs = std::make_unique<Lbs<float>>(b);
+}
+
+void AvatarRuntime::repose(const SmplxParams& params, PosedAvatar& out) const {
+  const Avatar& a = s_->avatar;
+  SmplxParams p;
+  p.pose = params.pose;
+  p.transl = params.transl;
+  if (s_->shaped) {
+    p.betas = a.betas;
+    p.expression = a.expression;
+  }
+  const int V = a.body.num_verts, N = a.gaussians.size();
+  out.num_verts = V;
+  out.num_gaussians = N;
+  out.verts.resize(size_t(V) * 3);
+  out.joints.resize(size_t(kNumJoints) * 3);
+  s_->lbs->forward(p, out.verts.data(), out.joints.data(), nullptr);
+  out.means.resize(size_t(N) * 3);
+  out.quats.resize(size_t(N) * 4);
+  out.scales.resize(size_t(N) * 3);
+  pose_gaussians(out.verts.data(), a.body, a.face_scale_divisor, a.gaussians, out.means.data(), out.quats.data(),
+                 out.scales.data());
+  out.colors = a.gaussians.color.data();
+  out.opacities = a.gaussians.opacity.data();
+}
+
+void AvatarRuntime::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
+                           const AvatarRenderOptions& options) const {
+  AvatarRenderScratch scratch;
+  render(cam, posed, rgb, options, scratch);
+}
+
+void AvatarRuntime::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
+                           const AvatarRenderOptions& options, AvatarRenderScratch& s) const {
+  const Avatar& a = s_->avatar;
+  if (posed.num_verts != a.body.num_verts || posed.verts.size() != size_t(posed.num_verts) * 3 ||
+      posed.num_gaussians != a.gaussians.size()) {
+    fail("render", "posed frame does not belong to this avatar (call repose first)");
+  }
+  const int P = cam.width * cam.height;
+  if (cam.width <= 0 || cam.height <= 0) fail("render", "camera has no pixels");
+  rgb.resize(size_t(P) * 3);
+
+  MergeInputs mi;
+  mi.num_pixels = P;
+  for (int c = 0; c < 3; ++c) mi.background_color[c] = options.background[c];
+  if (options.draw_mesh) {
+    MeshRenderInput in;
+    in.verts = posed.verts.data();
+    in.num_verts = posed.num_verts;
+    in.faces = a.body.faces.data();
+    in.num_faces = a.body.num_faces;
+    in.uv = a.body.vt.data();
+    in.num_uv = a.body.num_uv();
+    in.uv_faces = a.body.ft.data();
+    in.texture = {a.texture.width, a.texture.height, 3, a.texture.rgb.data()};
+    render_mesh(cam, in, s.mesh);
+    mi.mesh_color = s.mesh.color.data();
+    mi.mesh_mask = s.mesh.raster.mask.data();
+  }
+  if (options.draw_gaussians && posed.num_gaussians > 0) {
+    GaussianInputs<float> gi;
+    gi.count = posed.num_gaussians;
+    gi.means = posed.means.data();
+    gi.quats = posed.quats.data();
+    gi.scales = posed.scales.data();
+    gi.opacities = posed.opacities;
+    gi.colors = posed.colors;
+    GaussianRasterSettings<float> gs;
+    // Occluded where the centre lies behind the mesh surface; no background of its own
+    // (it enters once, in the merge).
+    gs.depth_map = options.draw_mesh ? s.mesh.raster.depth.data() : nullptr;
+    s.color.resize(size_t(P) * 3);
+    s.alpha.resize(size_t(P));
+    GaussianRasterOutputs<float> go;
+    go.color = s.color.data();
+    go.alpha = s.alpha.data();
+    rasterize_gaussians(gi, cam, gs, s.gaussians, go);
+    mi.color_front = s.color.data();
+    mi.alpha = s.alpha.data();
+  }
+  merge(mi, rgb.data());
+}
+
+}  // namespace haha

@@ -1,0 +1,92 @@
+#include "format/avatar_npz.h"
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "format/avatar_validate.h"
+#include "io/body_model_io.h"
+#include "io/npy.h"
+
+namespace haha {
+
+namespace fs = std::filesystem;
+
+void save_avatar_npz(const Avatar& a, const std::string& path) {
+  validate_subject(a, path);
+  validate_gaussians(a.gaussians, -1, path);
+  const BoundGaussians& g = a.gaussians;
+  const int64_t n = g.size();
+  Npz z(path);
+  z.set("format_version", NpyArray::from(std::vector<int32_t>{kAvatarNpzVersion}, {1}));
+  z.set("betas", NpyArray::from(a.betas, {int64_t(a.betas.size())}));
+  z.set("expression", NpyArray::from(a.expression, {int64_t(a.expression.size())}));
+  z.set("face_scale_divisor", NpyArray::from(std::vector<float>{a.face_scale_divisor}, {1}));
+  z.set("texture", NpyArray::from(a.texture.rgb, {a.texture.height, a.texture.width, 3}));
+  z.set("gaussian_face", NpyArray::from(g.face, {n}));
+  z.set("gaussian_offset", NpyArray::from(g.offset, {n, 3}));
+  z.set("gaussian_rotation", NpyArray::from(g.rotation, {n, 4}));
+  z.set("gaussian_scale", NpyArray::from(g.scale, {n, 3}));
+  z.set("gaussian_color", NpyArray::from(g.color, {n, 3}));
+  z.set("gaussian_opacity", NpyArray::from(g.opacity, {n}));
+  z.write(path);
+}
+
+Avatar load_avatar_npz(const std::string& path) {
+  const Npz z = Npz::read(path);
+  const std::vector<int32_t> version = z.get("format_version", {1}).as_int32();
+  if (version[0] != kAvatarNpzVersion) {
+    fail(path, "format_version: " + std::to_string(version[0]) + " is not supported (this build reads " +
+                   std::to_string(kAvatarNpzVersion) + ")");
+  }
+  Avatar a;
+  a.betas = z.get("betas", {-1}).as_float();
+  a.expression = z.get("expression", {-1}).as_float();
+  a.face_scale_divisor = z.get("face_scale_divisor", {1}).as_float()[0];
+  const NpyArray& tex = z.get("texture", {-1, -1, 3});
+  a.texture.height = int(tex.shape[0]);
+  a.texture.width = int(tex.shape[1]);
+  a.texture.rgb = tex.as_float();
+  const NpyArray& face = z.get("gaussian_face", {-1});
+  const int64_t n = face.shape[0];
+  BoundGaussians& g = a.gaussians;
+  g.face = face.as_int32();
+  g.offset = z.get("gaussian_offset", {n, 3}).as_float();
+  g.rotation = z.get("gaussian_rotation", {n, 4}).as_float();
+  g.scale = z.get("gaussian_scale", {n, 3}).as_float();
+  g.color = z.get("gaussian_color", {n, 3}).as_float();
+  g.opacity = z.get("gaussian_opacity", {n}).as_float();
+  validate_subject(a, path);
+  validate_gaussians(g, -1, path);
+  return a;
+}
+
+std::string run_model_path(const std::string& run_dir) {
+  const std::string cfg = (fs::path(run_dir) / "config.json").string();
+  std::ifstream f(cfg);
+  if (!f) fail(cfg, "cannot open (a run directory needs config.json naming the body model)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(f);
+  } catch (const nlohmann::json::exception& e) {
+    fail(cfg, std::string("invalid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("model") || !j["model"].is_string()) fail(cfg, "model: missing or not a string");
+  const fs::path model = j["model"].get<std::string>();
+  if (model.is_absolute()) return model.string();
+  const fs::path in_run = fs::path(run_dir) / model;
+  if (fs::exists(in_run)) return in_run.string();
+  return model.string();
+}
+
+Avatar load_run_avatar(const std::string& run_dir, const std::string& model_path) {
+  if (!fs::is_directory(run_dir)) fail(run_dir, "not a directory (expected a trained run directory)");
+  Avatar a = load_avatar_npz((fs::path(run_dir) / "avatar.npz").string());
+  const std::string model = model_path.empty() ? run_model_path(run_dir) : model_path;
+  a.body = load_body_model(model);
+  validate_gaussians(a.gaussians, a.body.num_faces, (fs::path(run_dir) / "avatar.npz").string());
+  return a;
+}
+
+}  // namespace haha

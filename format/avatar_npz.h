@@ -1,0 +1,46 @@
+// The trained avatar inside a run directory, as the trainer writes it and `haha pack`
+// reads it:
+//
+//   RUN/avatar.npz    the trained parameters (below)
+//   RUN/config.json   {"model": "path/to/SMPLX_NEUTRAL.npz", ...}: the body model the
+//                     avatar was trained on (relative paths: against RUN first, then the
+//                     current directory)
+//
+// avatar.npz keys (float32 unless noted; N Gaussians, values ACTIVATED, not logits):
+//   format_version      int32 (1)            = 1
+//   betas               (B)                  subject shape
+//   expression          (E)                  subject expression (may be empty: shape (0))
+//   face_scale_divisor  (1)                  k divisor of the face frames (release: 0.05)
+//   texture             (H, W, 3)            RGB in [0, 1], row 0 = top (v = 1)
+//   gaussian_face       int32 (N)            parent face index
+//   gaussian_offset     (N, 3)               local mean mu
+//   gaussian_rotation   (N, 4)               local unit quaternion (w, x, y, z)
+//   gaussian_scale      (N, 3)               > 0, in units of the face scale k
+//   gaussian_color      (N, 3)               RGB in [0, 1]
+//   gaussian_opacity    (N)                  [0, 1]
+#pragma once
+
+#include <string>
+
+#include "body/avatar.h"
+
+namespace haha {
+
+inline constexpr int kAvatarNpzVersion = 1;
+
+// Writes everything but the body (atomic). Throws haha::Error on inconsistent sizes or
+// non-finite values.
+void save_avatar_npz(const Avatar& avatar, const std::string& path);
+
+// Reads avatar.npz; the returned body is empty. Shapes, finiteness and value ranges are
+// checked ("path: key: problem"); face indices are checked once a body is attached.
+Avatar load_avatar_npz(const std::string& path);
+
+// RUN/avatar.npz + the body model named by RUN/config.json "model" (or `model_path` when
+// non-empty). Checks the Gaussians' face indices against the model.
+Avatar load_run_avatar(const std::string& run_dir, const std::string& model_path = "");
+
+// The body model path a run directory names (resolved as described above).
+std::string run_model_path(const std::string& run_dir);
+
+}  // namespace haha

@@ -1,0 +1,576 @@
+#include "format/avatar_pack.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+
+#include "body/face_frames.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "format/avatar_validate.h"
+#include "format/draco_io.h"
+#include "format/glb.h"
+
+namespace haha {
+
+using glb::Json;
+
+namespace {
+
+constexpr int kFloat = 5126, kUByte = 5121, kUShort = 5123, kUInt = 5125;
+constexpr int kArrayBuffer = 34962;
+
+// SMPL-X joint names, in joint order (node names of the skeleton).
+const char* const kJointNames[kNumJoints] = {
+    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2", "left_ankle",
+    "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar", "right_collar", "head",
+    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "jaw",
+    "left_eye", "right_eye", "left_index1", "left_index2", "left_index3", "left_middle1", "left_middle2",
+    "left_middle3", "left_pinky1", "left_pinky2", "left_pinky3", "left_ring1", "left_ring2", "left_ring3",
+    "left_thumb1", "left_thumb2", "left_thumb3", "right_index1", "right_index2", "right_index3",
+    "right_middle1", "right_middle2", "right_middle3", "right_pinky1", "right_pinky2", "right_pinky3",
+    "right_ring1", "right_ring2", "right_ring3", "right_thumb1", "right_thumb2", "right_thumb3"};
+
+Json float_array(const float* v, size_t n) {
+  Json a = Json::array();
+  for (size_t i = 0; i < n; ++i) a.push_back(double(v[i]));  // float -> double is exact
+  return a;
+}
+
+// glTF vertices: one per distinct (body vertex, UV index) corner pair. The first V glTF
+// vertices are the body vertices in order (so unreferenced vertices survive too); seam
+// duplicates follow in first-use order.
+struct SplitMesh {
+  std::vector<int32_t> source;  // (Vg) body vertex of each glTF vertex
+  std::vector<int32_t> uv_of;   // (Vg) UV index of each glTF vertex (-1: none)
+  std::vector<int32_t> faces;   // (F, 3) glTF vertex per corner
+};
+
+SplitMesh split_at_seams(const BodyModel& b) {
+  SplitMesh s;
+  const int V = b.num_verts, F = b.num_faces;
+  s.source.resize(size_t(V));
+  s.uv_of.assign(size_t(V), -1);
+  for (int v = 0; v < V; ++v) s.source[size_t(v)] = v;
+  std::map<std::pair<int32_t, int32_t>, int32_t> extra;
+  s.faces.resize(size_t(F) * 3);
+  for (size_t c = 0; c < size_t(F) * 3; ++c) {
+    const int32_t v = b.faces[c], t = b.ft[c];
+    int32_t g;
+    if (s.uv_of[size_t(v)] < 0 || s.uv_of[size_t(v)] == t) {
+      s.uv_of[size_t(v)] = t;
+      g = v;
+    } else {
+      auto it = extra.find({v, t});
+      if (it == extra.end()) {
+        g = int32_t(s.source.size());
+        extra.emplace(std::make_pair(v, t), g);
+        s.source.push_back(v);
+        s.uv_of.push_back(t);
+      } else {
+        g = it->second;
+      }
+    }
+    s.faces[c] = g;
+  }
+  return s;
+}
+
+// Area-weighted vertex normals of the rest mesh (per body vertex).
+std::vector<float> vertex_normals(const std::vector<float>& verts, const BodyModel& b) {
+  std::vector<double> n(size_t(b.num_verts) * 3, 0.0);
+  for (int f = 0; f < b.num_faces; ++f) {
+    const int32_t* fv = &b.faces[size_t(f) * 3];
+    Vec3d p[3];
+    for (int c = 0; c < 3; ++c) p[c] = Vec3d(Vec3f::load(&verts[size_t(fv[c]) * 3]));
+    const Vec3d fn = cross(p[1] - p[0], p[2] - p[0]);  // length = 2 x area
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k) n[size_t(fv[c]) * 3 + k] += fn[k];
+  }
+  std::vector<float> out(n.size());
+  for (int v = 0; v < b.num_verts; ++v) {
+    Vec3d x(n[size_t(v) * 3], n[size_t(v) * 3 + 1], n[size_t(v) * 3 + 2]);
+    const double l = norm(x);
+    x = l > 0 ? x / l : Vec3d(0, 1, 0);
+    for (int k = 0; k < 3; ++k) out[size_t(v) * 3 + k] = float(x[k]);
+  }
+  return out;
+}
+
+struct SkinSets {
+  int sets = 0, max_influences = 0;
+  std::vector<uint8_t> joints;   // (sets, V, 4)
+  std::vector<float> weights;    // (sets, V, 4)
+};
+
+SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight) {
+  const int V = b.num_verts;
+  std::vector<std::vector<std::pair<float, int>>> infl(static_cast<size_t>(V));
+  SkinSets s;
+  for (int v = 0; v < V; ++v) {
+    auto& list = infl[size_t(v)];
+    const float* w = &b.weights[size_t(v) * kNumJoints];
+    int nonzero = 0;
+    for (int j = 0; j < kNumJoints; ++j) nonzero += w[j] != 0.0f;
+    s.max_influences = std::max(s.max_influences, nonzero);
+    for (int j = 0; j < kNumJoints; ++j) {
+      if (w[j] != 0.0f && (lossless || w[j] >= min_weight)) list.push_back({w[j], j});
+    }
+    if (list.empty()) {  // every weight tiny: keep the largest
+      int best = int(std::max_element(w, w + kNumJoints) - w);
+      list.push_back({w[best], best});
+    }
+    // Largest first, so JOINTS_0/WEIGHTS_0 alone is the best 4-influence approximation.
+    std::stable_sort(list.begin(), list.end(), [](auto& a, auto& c) { return a.first > c.first; });
+    if (!lossless) {
+      double sum = 0;
+      for (auto& [wt, j] : list) sum += wt;
+      for (auto& [wt, j] : list) wt = float(wt / sum);
+    }
+  }
+  size_t most = 1;
+  for (auto& l : infl) most = std::max(most, l.size());
+  s.sets = int((most + 3) / 4);
+  s.joints.assign(size_t(s.sets) * V * 4, 0);
+  s.weights.assign(size_t(s.sets) * V * 4, 0.0f);
+  for (int v = 0; v < V; ++v) {
+    const auto& list = infl[size_t(v)];
+    for (size_t i = 0; i < list.size(); ++i) {
+      const size_t set = i / 4, slot = i % 4;
+      s.joints[(set * V + v) * 4 + slot] = uint8_t(list[i].second);
+      s.weights[(set * V + v) * 4 + slot] = list[i].first;
+    }
+  }
+  return s;
+}
+
+template <class T>
+std::vector<T> gather(const std::vector<T>& per_body_vertex, const std::vector<int32_t>& source, int comps) {
+  std::vector<T> out(source.size() * size_t(comps));
+  for (size_t g = 0; g < source.size(); ++g)
+    for (int k = 0; k < comps; ++k) out[g * comps + k] = per_body_vertex[size_t(source[g]) * comps + k];
+  return out;
+}
+
+}  // namespace
+
+std::vector<float> baked_rest_vertices(const Avatar& a) {
+  const BodyModel& b = a.body;
+  const size_t V = size_t(b.num_verts);
+  std::vector<float> out(b.v_template);
+  const int cols = b.num_shape + b.num_expr;
+  if (!has_shape_blend(b)) return out;  // already baked (e.g. an unpacked avatar)
+  if (int(a.betas.size()) > b.num_shape) {
+    fail("avatar", "betas: " + std::to_string(a.betas.size()) + " values but the body model has " +
+                       std::to_string(b.num_shape) + " shape directions");
+  }
+  if (int(a.expression.size()) > b.num_expr) {
+    fail("avatar", "expression: " + std::to_string(a.expression.size()) + " values but the body model has " +
+                       std::to_string(b.num_expr) + " expression directions");
+  }
+  for (size_t i = 0; i < V * 3; ++i) {
+    const float* d = &b.shapedirs[i * size_t(cols)];
+    double acc = b.v_template[i];
+    for (size_t k = 0; k < a.betas.size(); ++k) acc += double(d[k]) * a.betas[k];
+    for (size_t k = 0; k < a.expression.size(); ++k) acc += double(d[b.num_shape + k]) * a.expression[k];
+    out[i] = float(acc);
+  }
+  return out;
+}
+
+std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, PackedSizes* sizes_out) {
+  validate_avatar(a, "avatar");
+  const BodyModel& b = a.body;
+  if (b.vt.empty() || b.ft.size() != size_t(b.num_faces) * 3) {
+    fail("avatar", "body model has no UV map (vt/ft), which the texture needs");
+  }
+  const bool lossless = opt.lossless;
+  if (lossless && opt.texture_size > 0 && (opt.texture_size != a.texture.width || opt.texture_size != a.texture.height)) {
+    fail("--texture-size", "--lossless keeps the trained texture (" + std::to_string(a.texture.width) + " x " +
+                               std::to_string(a.texture.height) + "); a different size cannot be lossless");
+  }
+  const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
+  const MeshBits mb = lossless ? MeshBits{0, 0, 0, 0} : opt.mesh_bits;
+  const int V = b.num_verts, F = b.num_faces, N = a.gaussians.size();
+
+  PackedSizes sz;
+  sz.num_gaussians = N;
+  sz.num_faces = F;
+  glb::BinWriter bin;
+  Json gltf;
+  gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v1)"}};
+  Json used = {"KHR_draco_mesh_compression", "KHR_materials_unlit", kAvatarExtension};
+  Json required = {"KHR_draco_mesh_compression"};
+  Json accessors = Json::array();
+  auto add_accessor = [&](Json acc) {
+    accessors.push_back(std::move(acc));
+    return int(accessors.size()) - 1;
+  };
+
+  // ---- rest shape, joints ----
+  const std::vector<float> rest = baked_rest_vertices(a);
+  std::vector<double> joints(kNumJoints * 3, 0.0);
+  for (int j = 0; j < kNumJoints; ++j)
+    for (int v = 0; v < V; ++v) {
+      const double w = b.j_regressor[size_t(j) * V + v];
+      if (w != 0.0)
+        for (int k = 0; k < 3; ++k) joints[size_t(j) * 3 + k] += w * rest[size_t(v) * 3 + k];
+    }
+
+  // ---- glTF mesh: split at UV seams, skin sets, normals ----
+  const SplitMesh split = split_at_seams(b);
+  const int Vg = int(split.source.size());
+  sz.num_vertices = Vg;
+  std::vector<float> pos = gather(rest, split.source, 3);
+  std::vector<float> nrm = gather(vertex_normals(rest, b), split.source, 3);
+  std::vector<float> uv(size_t(Vg) * 2, 0.0f), uv_src(size_t(Vg) * 2, 0.0f);
+  for (int g = 0; g < Vg; ++g) {
+    const int32_t t = split.uv_of[size_t(g)];
+    if (t < 0) continue;
+    uv_src[size_t(g) * 2] = b.vt[size_t(t) * 2];
+    uv_src[size_t(g) * 2 + 1] = b.vt[size_t(t) * 2 + 1];
+    uv[size_t(g) * 2] = uv_src[size_t(g) * 2];
+    uv[size_t(g) * 2 + 1] = 1.0f - uv_src[size_t(g) * 2 + 1];  // glTF UV origin: top-left
+  }
+  const SkinSets skin = skin_sets(b, lossless, opt.min_skin_weight);
+  sz.skin_sets = skin.sets;
+  sz.max_influences = skin.max_influences;
+  std::vector<std::vector<uint8_t>> joints_g(size_t(skin.sets));
+  std::vector<std::vector<float>> weights_g(size_t(skin.sets));
+  for (int s = 0; s < skin.sets; ++s) {
+    std::vector<uint8_t> jv(skin.joints.begin() + size_t(s) * V * 4, skin.joints.begin() + size_t(s + 1) * V * 4);
+    std::vector<float> wv(skin.weights.begin() + size_t(s) * V * 4, skin.weights.begin() + size_t(s + 1) * V * 4);
+    joints_g[size_t(s)] = gather(jv, split.source, 4);
+    weights_g[size_t(s)] = gather(wv, split.source, 4);
+  }
+  const bool wide_index = V > 65535;
+  std::vector<uint16_t> src16;
+  if (!wide_index) src16.assign(split.source.begin(), split.source.end());
+
+  using dracoio::AttrIn;
+  using dracoio::Kind;
+  using dracoio::Type;
+  std::vector<AttrIn> mattrs;
+  mattrs.push_back({"POSITION", Kind::position, Type::f32, 3, pos.data(), mb.position});
+  mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, nrm.data(), mb.normal});
+  mattrs.push_back({"TEXCOORD_0", Kind::texcoord, Type::f32, 2, uv.data(), mb.texcoord});
+  for (int s = 0; s < skin.sets; ++s) {
+    mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, joints_g[size_t(s)].data(), 0});
+    mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, weights_g[size_t(s)].data(), mb.weight});
+  }
+  const size_t first_private = mattrs.size();
+  mattrs.push_back({"BODY_VERTEX", Kind::generic, wide_index ? Type::u32 : Type::u16, 1,
+                    wide_index ? static_cast<const void*>(split.source.data()) : static_cast<const void*>(src16.data()), 0});
+  if (lossless) mattrs.push_back({"TEXCOORD_SOURCE", Kind::generic, Type::f32, 2, uv_src.data(), 0});
+  const dracoio::Encoded mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F);
+
+  // Decode our own stream: it gives exact accessor bounds and guards the face order the
+  // Gaussians depend on (a Draco build that reordered faces would fail here, not later).
+  std::vector<float> pos_min(3, INFINITY), pos_max(3, -INFINITY);
+  {
+    dracoio::Decoded dec(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
+    if (dec.num_faces() != F || dec.num_points() != Vg || dec.faces() != split.faces) {
+      fail("pack", "Draco changed the mesh's face or vertex order; refusing to write a file whose Gaussians would bind to the wrong faces");
+    }
+    const std::vector<float> p = dec.floats(mesh_enc.unique_ids[0], 3, "POSITION");
+    for (int g = 0; g < Vg; ++g)
+      for (int k = 0; k < 3; ++k) {
+        pos_min[size_t(k)] = std::min(pos_min[size_t(k)], p[size_t(g) * 3 + k]);
+        pos_max[size_t(k)] = std::max(pos_max[size_t(k)], p[size_t(g) * 3 + k]);
+      }
+  }
+  const int mesh_view = bin.add_view(mesh_enc.bytes.data(), mesh_enc.bytes.size());
+  sz.mesh = mesh_enc.bytes.size();
+
+  Json prim_attrs, draco_attrs;
+  const int idx_acc = add_accessor({{"componentType", Vg > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
+  prim_attrs["POSITION"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"},
+                                         {"min", float_array(pos_min.data(), 3)}, {"max", float_array(pos_max.data(), 3)}});
+  prim_attrs["NORMAL"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
+  prim_attrs["TEXCOORD_0"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
+  for (int s = 0; s < skin.sets; ++s) {
+    prim_attrs["JOINTS_" + std::to_string(s)] = add_accessor({{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
+    prim_attrs["WEIGHTS_" + std::to_string(s)] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC4"}});
+  }
+  for (size_t i = 0; i < first_private; ++i) draco_attrs[mattrs[i].name] = mesh_enc.unique_ids[i];
+
+  Json primitive = {{"attributes", prim_attrs},
+                    {"indices", idx_acc},
+                    {"mode", 4},
+                    {"material", 0},
+                    {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", mesh_view}, {"attributes", draco_attrs}}}}}};
+  Json meshes = Json::array({{{"name", "body"}, {"primitives", Json::array({primitive})}}});
+
+  // ---- skeleton: joint nodes (identity rest rotation, translation = offset to parent) ----
+  Json nodes = Json::array();
+  std::vector<Json> children(kNumJoints, Json::array());
+  for (int j = 1; j < kNumJoints; ++j) children[size_t(b.parents[size_t(j)])].push_back(j);
+  for (int j = 0; j < kNumJoints; ++j) {
+    const int p = b.parents[size_t(j)];
+    float t[3];
+    for (int k = 0; k < 3; ++k) t[k] = float(joints[size_t(j) * 3 + k] - (p >= 0 ? joints[size_t(p) * 3 + k] : 0.0));
+    Json node = {{"name", kJointNames[j]}, {"translation", float_array(t, 3)}};
+    if (!children[size_t(j)].empty()) node["children"] = children[size_t(j)];
+    nodes.push_back(node);
+  }
+  const int mesh_node = int(nodes.size());
+  nodes.push_back({{"name", "body"}, {"mesh", 0}, {"skin", 0}});
+  std::vector<float> ibm(size_t(kNumJoints) * 16, 0.0f);
+  for (int j = 0; j < kNumJoints; ++j) {
+    float* m = &ibm[size_t(j) * 16];  // column-major: translation in elements 12..14
+    m[0] = m[5] = m[10] = m[15] = 1.0f;
+    for (int k = 0; k < 3; ++k) m[12 + k] = float(-joints[size_t(j) * 3 + k]);
+  }
+  const int ibm_view = bin.add_view(ibm.data(), ibm.size() * sizeof(float));
+  const int ibm_acc = add_accessor({{"bufferView", ibm_view}, {"componentType", kFloat}, {"count", kNumJoints}, {"type", "MAT4"}});
+  Json joint_list = Json::array();
+  for (int j = 0; j < kNumJoints; ++j) joint_list.push_back(j);
+  Json skins = Json::array({{{"name", "smplx"}, {"inverseBindMatrices", ibm_acc}, {"joints", joint_list}, {"skeleton", 0}}});
+  sz.skeleton += ibm.size() * sizeof(float);
+
+  // Sparse joint regressor (joint, vertex, weight), so a loader regresses the same joints.
+  std::vector<int32_t> jr_joint, jr_vert;
+  std::vector<float> jr_w;
+  for (int j = 0; j < kNumJoints; ++j)
+    for (int v = 0; v < V; ++v) {
+      const float w = b.j_regressor[size_t(j) * V + v];
+      if (w != 0.0f) {
+        jr_joint.push_back(j);
+        jr_vert.push_back(v);
+        jr_w.push_back(w);
+      }
+    }
+  std::vector<uint8_t> jr_bytes(jr_w.size() * 12);
+  std::memcpy(jr_bytes.data(), jr_joint.data(), jr_w.size() * 4);
+  std::memcpy(jr_bytes.data() + jr_w.size() * 4, jr_vert.data(), jr_w.size() * 4);
+  std::memcpy(jr_bytes.data() + jr_w.size() * 8, jr_w.data(), jr_w.size() * 4);
+  const int jr_view = bin.add_view(jr_bytes.data(), jr_bytes.size());
+  sz.skeleton += jr_bytes.size();
+
+  // ---- texture ----
+  Texture tex = a.texture;
+  if (opt.texture_size > 0) tex = resize_texture(tex, opt.texture_size, opt.texture_size);
+  const std::vector<uint8_t> img = encode_texture(tex, opt.texture_codec, opt.texture_quality);
+  const int img_view = bin.add_view(img.data(), img.size());
+  sz.texture = img.size();
+  Json images = Json::array({{{"bufferView", img_view}, {"mimeType", texture_mime(opt.texture_codec)}, {"name", "texture"}}});
+  Json texture_obj = {{"sampler", 0}};
+  if (opt.texture_codec == TextureCodec::webp) {
+    texture_obj["extensions"] = {{"EXT_texture_webp", {{"source", 0}}}};
+    used.push_back("EXT_texture_webp");
+    required.push_back("EXT_texture_webp");
+  } else {
+    texture_obj["source"] = 0;
+  }
+  // Linear filtering, clamp to edge: what the trainer's bilinear sampler does.
+  Json samplers = Json::array({{{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}});
+  Json materials = Json::array({{{"name", "avatar"},
+                                 {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+                                 {"extensions", {{"KHR_materials_unlit", Json::object()}}}}});
+
+  // ---- Gaussians: Draco point cloud ----
+  const BoundGaussians& G = a.gaussians;
+  // Lossy packs store the Gaussians sorted by face (stable): the face index then costs ~2
+  // bits instead of ~8, and the render does not depend on the order. Lossless keeps it.
+  std::vector<int32_t> order(static_cast<size_t>(N));
+  for (int i = 0; i < N; ++i) order[size_t(i)] = i;
+  if (!lossless) std::stable_sort(order.begin(), order.end(), [&](int32_t x, int32_t y) { return G.face[size_t(x)] < G.face[size_t(y)]; });
+  auto permuted = [&](const auto& v, int comps) {
+    std::remove_cvref_t<decltype(v)> out(v.size());
+    for (int i = 0; i < N; ++i)
+      for (int k = 0; k < comps; ++k) out[size_t(i) * comps + k] = v[size_t(order[size_t(i)]) * comps + k];
+    return out;
+  };
+  const std::vector<int32_t> face = permuted(G.face, 1);
+  const std::vector<float> offset = permuted(G.offset, 3), color = permuted(G.color, 3), opacity = permuted(G.opacity, 1);
+  std::vector<float> rot = permuted(G.rotation, 4), scl = permuted(G.scale, 3);
+  std::vector<uint8_t> largest;
+  if (!lossless) {
+    // "Smallest three": drop the largest |component| (>= 1/2 for a unit quaternion), made
+    // positive via q -> -q; the other three lie in [-1/sqrt 2, 1/sqrt 2], so the same bits
+    // give sqrt(2) finer steps than four components in [-1, 1], and a quarter fewer values.
+    std::vector<float> rot3(size_t(N) * 3);
+    largest.resize(size_t(N));
+    for (int i = 0; i < N; ++i) {
+      const float* q = &rot[size_t(i) * 4];
+      const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+      int m = 0;
+      for (int k = 1; k < 4; ++k)
+        if (std::fabs(q[k]) > std::fabs(q[m])) m = k;
+      const double sgn = q[m] < 0 ? -1.0 : 1.0;
+      largest[size_t(i)] = uint8_t(m);
+      for (int k = 0, o = 0; k < 4; ++k)
+        if (k != m) rot3[size_t(i) * 3 + o++] = float(sgn * q[k] / n);
+    }
+    rot = std::move(rot3);
+    for (float& x : scl) x = std::log(x);  // scales span decades: quantize them in log space
+  }
+  // Delta prediction only where consecutive Gaussians are related (face indices, offsets
+  // and colours along the face order); measured smaller that way, the others without.
+  std::vector<AttrIn> gattrs = {
+      {"FACE", Kind::generic, Type::i32, 1, face.data(), 0, true},
+      {"OFFSET", Kind::generic, Type::f32, 3, offset.data(), gb.offset, true},
+      {"ROTATION", Kind::generic, Type::f32, lossless ? 4 : 3, rot.data(), gb.rotation, false},
+      {"SCALE", Kind::generic, Type::f32, 3, scl.data(), gb.scale, false},
+      {"COLOR", Kind::generic, Type::f32, 3, color.data(), gb.color, true},
+      {"OPACITY", Kind::generic, Type::f32, 1, opacity.data(), gb.opacity, false}};
+  if (!lossless) gattrs.push_back({"ROTATION_LARGEST", Kind::generic, Type::u8, 1, largest.data(), 0, false});
+  const dracoio::Encoded genc = dracoio::encode(N, gattrs, nullptr, 0);
+  const int g_view = bin.add_view(genc.bytes.data(), genc.bytes.size());
+  sz.gaussians = genc.bytes.size();
+  Json g_ids, g_bits;
+  for (size_t i = 0; i < gattrs.size(); ++i) {
+    g_ids[gattrs[i].name] = genc.unique_ids[i];
+    if (gattrs[i].type == Type::f32) g_bits[gattrs[i].name] = gattrs[i].quant_bits;
+  }
+
+  // ---- the extension object ----
+  Json mesh_private;
+  for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
+  Json m_bits = {{"POSITION", mb.position}, {"NORMAL", mb.normal}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
+  Json ext;
+  ext["version"] = kAvatarFormatVersion;
+  ext["body"] = {{"mesh", 0},
+                 {"node", mesh_node},
+                 {"skin", 0},
+                 {"vertexCount", V},
+                 {"faceCount", F},
+                 {"draco", {{"bufferView", mesh_view}, {"crc32", bin.view_crc(mesh_view)}, {"attributes", mesh_private},
+                            {"quantizationBits", m_bits}}},
+                 {"jointRegressor", {{"bufferView", jr_view}, {"count", jr_w.size()}, {"crc32", bin.view_crc(jr_view)}}},
+                 {"skinSets", skin.sets},
+                 {"shapeBaked", true},
+                 // Whether the trainer's LBS applied pose correctives (a body with posedirs
+                 // always does), and which topology supplies them when they are not embedded.
+                 {"trainedWithPoseCorrectives", !b.posedirs.empty()},
+                 {"topologyCrc32", glb::crc32(reinterpret_cast<const uint8_t*>(b.faces.data()), b.faces.size() * 4)}};
+  ext["subject"] = {{"betas", float_array(a.betas.data(), a.betas.size())},
+                    {"expression", float_array(a.expression.data(), a.expression.size())}};
+  ext["faceFrame"] = {{"scaleDivisor", double(a.face_scale_divisor)}};
+  ext["gaussians"] = {{"count", N},
+                      {"bufferView", g_view},
+                      {"crc32", bin.view_crc(g_view)},
+                      {"attributes", g_ids},
+                      {"quantizationBits", g_bits},
+                      {"scaleEncoding", lossless ? "linear" : "log"},
+                      {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
+                      {"order", lossless ? "original" : "face"}};
+  ext["texture"] = {{"image", 0}, {"crc32", bin.view_crc(img_view)}, {"width", tex.width}, {"height", tex.height}};
+  if (lossless) {
+    const int ex_view = bin.add_view(a.texture.rgb.data(), a.texture.rgb.size() * sizeof(float));
+    ext["texture"]["exact"] = {{"bufferView", ex_view}, {"width", a.texture.width}, {"height", a.texture.height},
+                               {"crc32", bin.view_crc(ex_view)}};
+    sz.texture_exact = a.texture.rgb.size() * sizeof(float);
+  }
+  if (opt.pose_correctives) {
+    if (b.posedirs.size() != size_t(V) * 3 * kNumPoseFeatures) {
+      fail("avatar", "--pose-correctives: the body model has no pose-corrective blend shapes (posedirs)");
+    }
+    Json pc;
+    if (lossless) {
+      const int v = bin.add_view(b.posedirs.data(), b.posedirs.size() * sizeof(float));
+      pc = {{"bufferView", v}, {"componentType", "float32"}, {"crc32", bin.view_crc(v)}};
+      sz.pose_correctives = bin.view_size(v);
+    } else {
+      // int16 with one scale per pose feature: value = q * scale[feature].
+      std::vector<float> scale(kNumPoseFeatures, 0.0f);
+      const size_t rows = size_t(V) * 3;
+      for (size_t r = 0; r < rows; ++r)
+        for (int f = 0; f < kNumPoseFeatures; ++f)
+          scale[size_t(f)] = std::max(scale[size_t(f)], std::fabs(b.posedirs[r * kNumPoseFeatures + f]));
+      for (float& s : scale) s = s > 0 ? s / 32767.0f : 1.0f;
+      std::vector<int16_t> q(b.posedirs.size());
+      for (size_t r = 0; r < rows; ++r)
+        for (int f = 0; f < kNumPoseFeatures; ++f)
+          q[r * kNumPoseFeatures + f] = int16_t(std::lround(b.posedirs[r * kNumPoseFeatures + f] / scale[size_t(f)]));
+      const int v = bin.add_view(q.data(), q.size() * sizeof(int16_t));
+      const int sv = bin.add_view(scale.data(), scale.size() * sizeof(float));
+      pc = {{"bufferView", v}, {"componentType", "int16"}, {"crc32", bin.view_crc(v)},
+            {"scaleBufferView", sv}, {"scaleCrc32", bin.view_crc(sv)}};
+      sz.pose_correctives = bin.view_size(v) + bin.view_size(sv);
+    }
+    ext["body"]["poseCorrectives"] = pc;
+  }
+
+  Json scene_nodes = {0, mesh_node};
+  if (opt.khr_gaussian_splatting) {
+    // Rest-pose world Gaussians (the face frames of the baked rest mesh).
+    std::vector<float> means(size_t(N) * 3), quats(size_t(N) * 4), scales(size_t(N) * 3);
+    pose_gaussians(rest.data(), b, a.face_scale_divisor, G, means.data(), quats.data(), scales.data());
+    std::vector<float> xyzw(size_t(N) * 4), op(G.opacity), sh0(size_t(N) * 3);
+    for (int i = 0; i < N; ++i) {
+      const float* q = &quats[size_t(i) * 4];
+      const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+      for (int k = 0; k < 3; ++k) xyzw[size_t(i) * 4 + k] = float(q[k + 1] / n);
+      xyzw[size_t(i) * 4 + 3] = float(q[0] / n);
+      for (int k = 0; k < 3; ++k) sh0[size_t(i) * 3 + k] = float((G.color[size_t(i) * 3 + k] - 0.5) / 0.28209479177387814);
+    }
+    std::vector<float> mn(3, INFINITY), mx(3, -INFINITY);
+    for (int i = 0; i < N; ++i)
+      for (int k = 0; k < 3; ++k) {
+        mn[size_t(k)] = std::min(mn[size_t(k)], means[size_t(i) * 3 + k]);
+        mx[size_t(k)] = std::max(mx[size_t(k)], means[size_t(i) * 3 + k]);
+      }
+    if (N == 0) mn = mx = {0.0f, 0.0f, 0.0f};
+    const size_t before = bin.bytes().size();
+    auto view_acc = [&](const std::vector<float>& data, const char* type, int count) {
+      const int v = bin.add_view(data.data(), data.size() * sizeof(float), 4, kArrayBuffer);
+      return add_accessor({{"bufferView", v}, {"componentType", kFloat}, {"count", count}, {"type", type}});
+    };
+    Json sattrs;
+    sattrs["POSITION"] = view_acc(means, "VEC3", N);
+    accessors[size_t(sattrs["POSITION"].get<int>())]["min"] = float_array(mn.data(), 3);
+    accessors[size_t(sattrs["POSITION"].get<int>())]["max"] = float_array(mx.data(), 3);
+    sattrs["KHR_gaussian_splatting:ROTATION"] = view_acc(xyzw, "VEC4", N);
+    sattrs["KHR_gaussian_splatting:SCALE"] = view_acc(scales, "VEC3", N);
+    sattrs["KHR_gaussian_splatting:OPACITY"] = view_acc(op, "SCALAR", N);
+    sattrs["KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"] = view_acc(sh0, "VEC3", N);
+    sz.splats = bin.bytes().size() - before;
+    meshes.push_back({{"name", "gaussians_rest_pose"},
+                      {"primitives", Json::array({{{"attributes", sattrs},
+                                                   {"mode", 0},
+                                                   {"extensions", {{"KHR_gaussian_splatting", {{"kernel", "ellipse"}, {"colorSpace", "srgb_rec709_display"}}}}}}})}});
+    const int splat_node = int(nodes.size());
+    nodes.push_back({{"name", "gaussians_rest_pose"}, {"mesh", 1}});
+    scene_nodes.push_back(splat_node);
+    used.push_back("KHR_gaussian_splatting");
+    ext["splats"] = {{"mesh", 1}, {"node", splat_node}};
+  }
+
+  gltf["extensionsUsed"] = used;
+  gltf["extensionsRequired"] = required;
+  gltf["extensions"] = {{kAvatarExtension, ext}};
+  gltf["scene"] = 0;
+  gltf["scenes"] = Json::array({{{"name", "avatar"}, {"nodes", scene_nodes}}});
+  gltf["nodes"] = nodes;
+  gltf["meshes"] = meshes;
+  gltf["skins"] = skins;
+  gltf["materials"] = materials;
+  gltf["textures"] = Json::array({texture_obj});
+  gltf["samplers"] = samplers;
+  gltf["images"] = images;
+  gltf["accessors"] = accessors;
+  gltf["bufferViews"] = bin.views();
+  gltf["buffers"] = Json::array({{{"byteLength", bin.bytes().size()}}});
+
+  std::vector<uint8_t> out = glb::write_glb(gltf, bin.bytes());
+  sz.total = out.size();
+  sz.json = out.size() - ((bin.bytes().size() + 3) / 4 * 4) - 28;
+  if (sizes_out) *sizes_out = sz;
+  return out;
+}
+
+PackedSizes write_avatar_glb(const Avatar& avatar, const std::string& path, const PackOptions& options) {
+  PackedSizes sz;
+  const std::vector<uint8_t> bytes = pack_avatar(avatar, options, &sz);
+  write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (!f) fail(path, "cannot write");
+  });
+  return sz;
+}
+
+}  // namespace haha

@@ -1,0 +1,94 @@
+// Avatar -> .glb (format/spec.md). The file is a standard skinned, textured glTF 2.0 mesh
+// (Draco-compressed, sequential so face order is kept) plus the HAHA_gaussian_avatar
+// extension holding the face-bound Gaussians (a Draco point cloud) and what a loader
+// needs to repose and render them exactly like the trainer.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "body/avatar.h"
+#include "format/image_codec.h"
+
+namespace haha {
+
+inline constexpr const char* kAvatarExtension = "HAHA_gaussian_avatar";
+inline constexpr int kAvatarFormatVersion = 1;
+
+// Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).
+// Defaults: one-at-a-time sensitivity on a realistic-size avatar (tests/slow/
+// format_storage_test.cpp) keeps each attribute's own cost above ~58 dB and the default
+// pack above 45 dB PSNR against the original's renders.
+struct GaussianBits {
+  int offset = 12;    // local offset, uniform over its bounding box
+  int rotation = 10;  // unit quaternion components in [-1, 1]
+  int scale = 8;      // log(scale), uniform over its range
+  int color = 7;      // RGB in [0, 1]
+  int opacity = 7;    // [0, 1]
+};
+
+// Draco quantization bits of the glTF mesh; 0 = raw float32.
+struct MeshBits {
+  int position = 16;  // 15 bits already cost ~6 dB: Gaussians sit at the surface, and the
+                      // depth test against the mesh flips with sub-0.1 mm moves
+  int normal = 8;     // octahedral; normals only serve lit viewers
+  int texcoord = 12;
+  int weight = 10;
+};
+
+struct PackOptions {
+  // Raw float32 everywhere, a float32 copy of the texture and of the UVs: every trained
+  // parameter and every stored body array comes back bit-exact. Ignores the bit settings.
+  bool lossless = false;
+  GaussianBits gaussian_bits;
+  MeshBits mesh_bits;
+  // JPEG (4:4:4, quality 95) by default: every glTF viewer reads it, and at the trained
+  // size it costs far less than the 45 dB budget; png is lossless 8-bit; webp is smaller
+  // but makes EXT_texture_webp a required extension.
+  TextureCodec texture_codec = TextureCodec::webp;  // smallest at equal PSNR (format/spec.md section 6)
+  int texture_quality = 95;  // jpg / webp
+  int texture_size = 0;      // 0 = the trained size; else a square N x N resample
+  // Adds a KHR_gaussian_splatting POINTS primitive with the Gaussians in the rest pose
+  // (for splat-aware viewers). Note: the Khronos validator (2.0.0-dev.3.10) reports its
+  // attribute names as errors; see spec.md.
+  bool khr_gaussian_splatting = false;
+  // Embeds the body model's pose-corrective blend shapes (posedirs) so the runtime
+  // reposes exactly like the trainer (int16, or float32 with `lossless`). Large
+  // (V x 3 x 486 values); off by default.
+  bool pose_correctives = false;
+  // Lossy mode drops skinning weights below this and renormalises (lossless keeps all).
+  float min_skin_weight = 1e-4f;
+};
+
+// Bytes per part of a packed file (what `haha info` and the storage report show).
+struct PackedSizes {
+  size_t total = 0;
+  size_t json = 0;
+  size_t mesh = 0;            // Draco mesh (positions, normals, UVs, skin, vertex map)
+  size_t skeleton = 0;        // inverse bind matrices + joint regressor
+  size_t gaussians = 0;       // Draco point cloud of the Gaussians
+  size_t texture = 0;         // encoded image
+  size_t texture_exact = 0;   // float32 texture copy (lossless only)
+  size_t pose_correctives = 0;
+  size_t splats = 0;          // KHR_gaussian_splatting primitive
+  int num_gaussians = 0;
+  int num_vertices = 0;       // glTF vertices (body vertices split at UV seams)
+  int num_faces = 0;
+  int skin_sets = 0;          // JOINTS_n/WEIGHTS_n sets shipped
+  int max_influences = 0;     // largest number of nonzero weights of a vertex in the body
+};
+
+// Packs the avatar. Throws haha::Error ("avatar: <problem>") on invalid input (sizes,
+// NaN/Inf, face index out of range, missing UV map, ...).
+std::vector<uint8_t> pack_avatar(const Avatar& avatar, const PackOptions& options, PackedSizes* sizes = nullptr);
+
+// pack_avatar + atomic write.
+PackedSizes write_avatar_glb(const Avatar& avatar, const std::string& path, const PackOptions& options);
+
+// Rest-shape vertices (V, 3) of the avatar's body: v_template + shapedirs . [betas,
+// expression], accumulated in double. A body without (non-zero) shapedirs is taken as
+// already baked (its betas are metadata only). Throws if betas/expression are longer than the model's.
+std::vector<float> baked_rest_vertices(const Avatar& avatar);
+
+}  // namespace haha

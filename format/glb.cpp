@@ -1,0 +1,201 @@
+#include "format/glb.h"
+
+#include <array>
+#include <cmath>
+#include <cstring>
+
+#include "core/error.h"
+
+namespace haha::glb {
+
+namespace {
+
+constexpr uint32_t kMagic = 0x46546C67;      // "glTF"
+constexpr uint32_t kChunkJson = 0x4E4F534A;  // "JSON"
+constexpr uint32_t kChunkBin = 0x004E4942;   // "BIN\0"
+
+std::array<uint32_t, 256> make_crc_table() {
+  std::array<uint32_t, 256> t{};
+  for (uint32_t i = 0; i < 256; ++i) {
+    uint32_t c = i;
+    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    t[i] = c;
+  }
+  return t;
+}
+
+uint32_t read_u32(const uint8_t* p) {
+  return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
+}
+void put_u32(std::vector<uint8_t>& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));
+}
+
+}  // namespace
+
+uint32_t crc32(const uint8_t* data, size_t size) {
+  static const std::array<uint32_t, 256> table = make_crc_table();
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < size; ++i) c = table[(c ^ data[i]) & 0xFF] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+int BinWriter::add_view(const void* data, size_t size, int align, int target) {
+  while (bin_.size() % size_t(align)) bin_.push_back(0);
+  const size_t offset = bin_.size();
+  const auto* p = static_cast<const uint8_t*>(data);
+  bin_.insert(bin_.end(), p, p + size);
+  Json v = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", size}};
+  if (target > 0) v["target"] = target;
+  views_.push_back(v);
+  sizes_.push_back(size);
+  crcs_.push_back(crc32(p, size));
+  return int(views_.size()) - 1;
+}
+
+std::vector<uint8_t> write_glb(const Json& gltf, const std::vector<uint8_t>& bin) {
+  std::string js = gltf.dump();
+  while (js.size() % 4) js.push_back(' ');
+  const size_t bin_padded = (bin.size() + 3) / 4 * 4;
+  const size_t total = 12 + 8 + js.size() + (bin.empty() ? 0 : 8 + bin_padded);
+  std::vector<uint8_t> out;
+  out.reserve(total);
+  put_u32(out, kMagic);
+  put_u32(out, 2);
+  put_u32(out, uint32_t(total));
+  put_u32(out, uint32_t(js.size()));
+  put_u32(out, kChunkJson);
+  out.insert(out.end(), js.begin(), js.end());
+  if (!bin.empty()) {
+    put_u32(out, uint32_t(bin_padded));
+    put_u32(out, kChunkBin);
+    out.insert(out.end(), bin.begin(), bin.end());
+    out.resize(total, 0);
+  }
+  return out;
+}
+
+Glb parse_glb(const uint8_t* data, size_t size, const std::string& where) {
+  if (size < 20) fail(where, "not a .glb file: " + std::to_string(size) + " bytes is shorter than a GLB header");
+  if (read_u32(data) != kMagic) fail(where, "not a .glb file (bad magic)");
+  const uint32_t version = read_u32(data + 4);
+  if (version != 2) fail(where, "unsupported GLB container version " + std::to_string(version) + " (need 2)");
+  const uint32_t length = read_u32(data + 8);
+  if (length > size) {
+    fail(where, "truncated: header says " + std::to_string(length) + " bytes, file has " + std::to_string(size));
+  }
+  if (length < 20) fail(where, "corrupt GLB header (length " + std::to_string(length) + ")");
+  Glb g;
+  size_t pos = 12;
+  bool have_json = false, have_bin = false;
+  while (pos + 8 <= length) {
+    const uint32_t clen = read_u32(data + pos);
+    const uint32_t ctype = read_u32(data + pos + 4);
+    pos += 8;
+    if (clen > length - pos) fail(where, "truncated or corrupt GLB chunk (length " + std::to_string(clen) + ")");
+    if (!have_json) {
+      if (ctype != kChunkJson) fail(where, "corrupt GLB: first chunk is not JSON");
+      try {
+        g.json = Json::parse(data + pos, data + pos + clen);
+      } catch (const Json::exception& e) {
+        fail(where, std::string("corrupt glTF JSON: ") + e.what());
+      }
+      g.json_chunk_bytes = clen;
+      have_json = true;
+    } else if (ctype == kChunkBin && !have_bin) {
+      g.bin.assign(data + pos, data + pos + clen);
+      have_bin = true;
+    }  // other chunk types are ignored, as the GLB spec requires
+    pos += clen;
+    pos = (pos + 3) / 4 * 4;
+  }
+  if (!have_json) fail(where, "corrupt GLB: no JSON chunk");
+  if (!g.json.is_object()) fail(where, "corrupt glTF JSON: top level is not an object");
+  return g;
+}
+
+const Json* find_member(const Json& obj, const char* key) {
+  if (!obj.is_object()) return nullptr;
+  auto it = obj.find(key);
+  return it == obj.end() ? nullptr : &*it;
+}
+
+const Json& member(const Json& obj, const char* key, const std::string& where, const std::string& what) {
+  if (!obj.is_object()) fail(where, what + ": not a JSON object");
+  auto it = obj.find(key);
+  if (it == obj.end()) fail(where, what + "." + key + ": missing");
+  return *it;
+}
+
+int64_t as_int(const Json& v, const std::string& where, const std::string& what, int64_t lo, int64_t hi) {
+  int64_t x = 0;
+  if (v.is_number_integer()) {
+    x = v.is_number_unsigned() ? (v.get<uint64_t>() > uint64_t(INT64_MAX) ? INT64_MAX : int64_t(v.get<uint64_t>()))
+                               : v.get<int64_t>();
+  } else if (v.is_number_float()) {
+    const double d = v.get<double>();
+    if (!std::isfinite(d) || d != std::floor(d) || std::fabs(d) > 9e15) fail(where, what + ": not an integer");
+    x = int64_t(d);
+  } else {
+    fail(where, what + ": not an integer");
+  }
+  if (x < lo || x > hi) {
+    fail(where, what + ": " + std::to_string(x) + " out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+  return x;
+}
+
+double as_number(const Json& v, const std::string& where, const std::string& what) {
+  if (!v.is_number()) fail(where, what + ": not a number");
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) fail(where, what + ": not finite");
+  return d;
+}
+
+std::string as_string(const Json& v, const std::string& where, const std::string& what) {
+  if (!v.is_string()) fail(where, what + ": not a string");
+  return v.get<std::string>();
+}
+
+std::vector<float> as_float_array(const Json& v, const std::string& where, const std::string& what,
+                                  size_t max_len) {
+  if (!v.is_array()) fail(where, what + ": not an array");
+  if (v.size() > max_len) fail(where, what + ": " + std::to_string(v.size()) + " values, at most " + std::to_string(max_len));
+  std::vector<float> out;
+  out.reserve(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    const double d = as_number(v[i], where, what + "[" + std::to_string(i) + "]");
+    const float f = float(d);
+    if (!std::isfinite(f)) fail(where, what + "[" + std::to_string(i) + "]: out of float range");
+    out.push_back(f);
+  }
+  return out;
+}
+
+const Json& element(const Json& root, const char* key, int64_t i, const std::string& where) {
+  const Json& arr = member(root, key, where, "glTF");
+  if (!arr.is_array()) fail(where, std::string(key) + ": not an array");
+  if (i < 0 || size_t(i) >= arr.size()) {
+    fail(where, std::string(key) + "[" + std::to_string(i) + "]: index out of range (" + std::to_string(arr.size()) + " entries)");
+  }
+  return arr[size_t(i)];
+}
+
+ByteSpan buffer_view(const Glb& g, int view, const std::string& where) {
+  const Json& bv = element(g.json, "bufferViews", view, where);
+  const std::string what = "bufferViews[" + std::to_string(view) + "]";
+  const int64_t buffer = as_int(member(bv, "buffer", where, what), where, what + ".buffer", 0, 1 << 20);
+  if (buffer != 0) fail(where, what + ": refers to buffer " + std::to_string(buffer) + ", only the GLB buffer 0 is supported");
+  const Json& b0 = element(g.json, "buffers", 0, where);
+  if (find_member(b0, "uri")) fail(where, "buffers[0]: external buffers are not supported (expected the GLB BIN chunk)");
+  int64_t offset = 0;
+  if (const Json* o = find_member(bv, "byteOffset")) offset = as_int(*o, where, what + ".byteOffset", 0, INT64_MAX / 4);
+  const int64_t length = as_int(member(bv, "byteLength", where, what), where, what + ".byteLength", 0, INT64_MAX / 4);
+  if (size_t(offset) > g.bin.size() || size_t(length) > g.bin.size() - size_t(offset)) {
+    fail(where, what + ": bytes [" + std::to_string(offset) + ", " + std::to_string(offset + length) +
+                    ") lie outside the " + std::to_string(g.bin.size()) + "-byte BIN chunk (truncated file?)");
+  }
+  return {g.bin.data() + offset, size_t(length)};
+}
+
+}  // namespace haha::glb
