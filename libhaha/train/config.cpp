@@ -1,0 +1,281 @@
+#include "train/config.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "core/error.h"
+
+namespace haha {
+
+namespace {
+
+void add_weights(std::vector<ConfigEntry>& v, const std::string& prefix, LossWeights& w) {
+  using K = ConfigEntry::Kind;
+  v.push_back({prefix + ".w.l2", K::Double, &w.l2, "weight of the L2 loss"});
+  v.push_back({prefix + ".w.ssim", K::Double, &w.ssim, "weight of 1 - SSIM"});
+  v.push_back({prefix + ".w.sobel", K::Double, &w.sobel, "weight of the edge (Sobel) loss"});
+  v.push_back({prefix + ".w.lpips", K::Double, &w.lpips, "weight of LPIPS-VGG (needs --lpips-weights)"});
+  v.push_back({prefix + ".w.knn", K::Double, &w.knn, "weight of the KNN regulariser"});
+  v.push_back({prefix + ".w.dice", K::Double, &w.dice, "weight of the silhouette Dice loss"});
+  v.push_back({prefix + ".w.tv", K::Double, &w.tv, "weight of the texture TV"});
+  v.push_back({prefix + ".w.opacity", K::Double, &w.opacity, "weight of the opacity regulariser"});
+}
+
+// Levenshtein distance, for "did you mean" on unknown keys.
+int edit_distance(const std::string& a, const std::string& b) {
+  std::vector<int> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = int(j);
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = int(i);
+    for (size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+}  // namespace
+
+std::vector<ConfigEntry> config_entries(TrainConfig& c) {
+  using K = ConfigEntry::Kind;
+  std::vector<ConfigEntry> v;
+  v.push_back({"preset", K::String, &c.preset, "preset the run started from (informative)"});
+  v.push_back({"seed", K::Uint64, &c.seed, "seed of every random choice (frame order, backgrounds, splits)"});
+  v.push_back({"resolution", K::Int, &c.resolution, "longer image side for training (0 = dataset's)"});
+  v.push_back({"batch", K::Int, &c.batch, "frames per step"});
+  v.push_back({"face_scale_divisor", K::Double, &c.face_scale_divisor, "face scale k is divided by this"});
+  v.push_back({"scale_max", K::Double, &c.scale_max, "scale activation s = scale_max * sigmoid(logit)"});
+  v.push_back({"premultiplied", K::String, &c.premultiplied,
+               "images already on black with soft masks (auto: datasets made by haha synth)"});
+  v.push_back({"checkpoint_every", K::Int, &c.checkpoint_every, "steps between checkpoints (0 = stage ends only)"});
+  v.push_back({"log_every", K::Int, &c.log_every, "steps between progress lines"});
+  v.push_back({"random_background", K::Bool, &c.random_background, "random background colour in stages 1 and 3"});
+
+  Stage1Config& s1 = c.s1;
+  v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});
+  v.push_back({"s1.lr.offset_init", K::Double, &s1.lr_offset_init, "position lr at the stage start"});
+  v.push_back({"s1.lr.offset_final", K::Double, &s1.lr_offset_final, "position lr at the stage end"});
+  v.push_back({"s1.lr.rotation", K::Double, &s1.lr_rotation, "rotation lr"});
+  v.push_back({"s1.lr.scale", K::Double, &s1.lr_scale, "scale (logit) lr"});
+  v.push_back({"s1.lr.color", K::Double, &s1.lr_color, "colour (logit) lr"});
+  v.push_back({"s1.lr.pose", K::Double, &s1.lr_pose, "global orient / body pose / transl / betas lr"});
+  v.push_back({"s1.lr.pose_fine", K::Double, &s1.lr_pose_fine, "jaw / hand pose lr"});
+  v.push_back({"s1.refine_pose", K::Bool, &s1.refine_pose, "refine per-frame SMPL-X pose, transl and betas"});
+  v.push_back({"s1.opacity", K::Double, &s1.opacity, "fixed opacity of stage 1"});
+  v.push_back({"s1.init_scale", K::Double, &s1.init_scale, "initial local scale (units of k)"});
+  v.push_back({"s1.init_color", K::Double, &s1.init_color, "initial colour (grey level)"});
+  add_weights(v, "s1", s1.w);
+  v.push_back({"s1.densify.from", K::Int, &s1.densify_from, "first densification step"});
+  v.push_back({"s1.densify.until", K::Int, &s1.densify_until, "no densification at or after this step"});
+  v.push_back({"s1.densify.every", K::Int, &s1.densify_every, "steps between densifications (0 = off)"});
+  v.push_back({"s1.densify.grad", K::Double, &s1.densify_grad, "mean screen-space gradient threshold (NDC)"});
+  v.push_back({"s1.densify.clone_scale", K::Double, &s1.densify_clone_scale, "max local scale for clone (else split)"});
+  v.push_back({"s1.densify.split_div", K::Double, &s1.densify_split_div, "split children's scale divisor"});
+  v.push_back({"s1.densify.split_std", K::Double, &s1.densify_split_std, "split offset std (times scale)"});
+  v.push_back({"s1.max_gaussians", K::Int, &s1.max_gaussians, "densification stops at this count"});
+  v.push_back({"s1.knn.k", K::Int, &s1.knn_k, "KNN regulariser set size (self + k-1 neighbours)"});
+  v.push_back({"s1.knn.every", K::Int, &s1.knn_every, "steps between neighbour-set updates"});
+
+  Stage2Config& s2 = c.s2;
+  v.push_back({"s2.steps", K::Int, &s2.steps, "stage 2 steps (texture)"});
+  v.push_back({"s2.lr.texture", K::Double, &s2.lr_texture, "texture lr"});
+  v.push_back({"s2.texture_size", K::Int, &s2.texture_size, "texture side in texels"});
+  v.push_back({"s2.init_color", K::Double, &s2.init_color, "initial texture grey level"});
+  add_weights(v, "s2", s2.w);
+
+  Stage3Config& s3 = c.s3;
+  v.push_back({"s3.steps", K::Int, &s3.steps, "stage 3 steps (opacity / colour filtering)"});
+  v.push_back({"s3.lr.opacity", K::Double, &s3.lr_opacity, "opacity (logit) lr"});
+  v.push_back({"s3.lr.color", K::Double, &s3.lr_color, "colour (logit) lr"});
+  add_weights(v, "s3", s3.w);
+  v.push_back({"s3.opacity_mode", K::OpacityMode, &s3.opacity_mode, "opacity regulariser: sum_squares | mean_abs"});
+  v.push_back({"s3.prune_threshold", K::Double, &s3.prune_threshold, "Gaussians below this opacity are deleted"});
+  v.push_back({"s3.prune_every", K::Int, &s3.prune_every, "steps between prunes (and at the stage end)"});
+  v.push_back({"s3.depth_margin", K::Double, &s3.depth_margin, "depth test margin in metres (0 = exact)"});
+
+  v.push_back({"use_sobel", K::Bool, &c.use_sobel, "ablation switch: edge loss"});
+  v.push_back({"use_opacity_reg", K::Bool, &c.use_opacity_reg, "ablation switch: opacity regulariser"});
+  v.push_back({"use_dice", K::Bool, &c.use_dice, "ablation switch: silhouette Dice"});
+  v.push_back({"eval.tto_steps", K::Int, &c.eval_tto_steps, "test-time pose optimisation steps"});
+  v.push_back({"eval.lr.pose", K::Double, &c.eval_lr_pose, "test-time body pose / transl lr"});
+  v.push_back({"eval.lr.pose_fine", K::Double, &c.eval_lr_pose_fine, "test-time jaw / hand lr"});
+  v.push_back({"max_cache_mb", K::Double, &c.max_cache_mb, "memory for per-frame mesh caches (MB)"});
+  v.push_back({"nan_patience", K::Int, &c.nan_patience, "consecutive non-finite steps before the run stops"});
+  return v;
+}
+
+std::string config_value_string(const ConfigEntry& e) {
+  char buf[64];
+  switch (e.kind) {
+    case ConfigEntry::Kind::Int:
+      return std::to_string(*static_cast<int*>(e.ptr));
+    case ConfigEntry::Kind::Uint64:
+      return std::to_string(*static_cast<uint64_t*>(e.ptr));
+    case ConfigEntry::Kind::Double: {
+      // Shortest of %.15g / %.16g / %.17g that reads back exactly.
+      const double v = *static_cast<double*>(e.ptr);
+      for (int prec : {15, 16, 17}) {
+        std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+        if (std::strtod(buf, nullptr) == v) break;
+      }
+      return buf;
+    }
+    case ConfigEntry::Kind::Bool:
+      return *static_cast<bool*>(e.ptr) ? "true" : "false";
+    case ConfigEntry::Kind::String:
+      return *static_cast<std::string*>(e.ptr);
+    case ConfigEntry::Kind::OpacityMode:
+      return *static_cast<OpacityRegMode*>(e.ptr) == OpacityRegMode::SumSquares ? "sum_squares" : "mean_abs";
+  }
+  return "";
+}
+
+TrainConfig make_preset(const std::string& name) {
+  TrainConfig c;
+  c.preset = name;
+  if (name == "paper") return c;
+  if (name != "tiny") fail("--preset", "unknown preset '" + name + "' (paper, tiny)");
+  // CPU demo: 128 px, one frame per step, a few hundred steps per stage. Learning rates of
+  // the Gaussians are raised so that the short schedule moves them as far as the long one.
+  c.resolution = 128;
+  c.batch = 1;
+  c.checkpoint_every = 100;
+  c.log_every = 25;
+  c.s1.steps = 1000;
+  c.s1.lr_offset_init = 1.6e-3;
+  c.s1.lr_offset_final = 1.6e-5;
+  c.s1.lr_rotation = 1e-2;
+  c.s1.lr_scale = 1e-2;
+  c.s1.lr_color = 2e-2;
+  c.s1.lr_pose = 5e-4;
+  c.s1.lr_pose_fine = 5e-5;
+  c.s1.densify_from = 50;
+  c.s1.densify_until = 800;
+  c.s1.densify_every = 100;
+  c.s1.max_gaussians = 40000;
+  c.s1.knn_every = 10;
+  c.s2.steps = 600;
+  c.s2.lr_texture = 0.03;
+  c.s2.texture_size = 256;
+  c.s3.steps = 600;
+  c.s3.prune_every = 100;
+  c.eval_tto_steps = 20;
+  c.eval_lr_pose = 3e-3;
+  return c;
+}
+
+void set_config_value(TrainConfig& c, const std::string& key, const std::string& value, const std::string& where) {
+  std::vector<ConfigEntry> entries = config_entries(c);
+  const ConfigEntry* e = nullptr;
+  for (const ConfigEntry& x : entries)
+    if (x.key == key) e = &x;
+  if (!e) {
+    std::string best;
+    int best_d = 1 << 30;
+    for (const ConfigEntry& x : entries) {
+      const int d = edit_distance(key, x.key);
+      if (d < best_d) best_d = d, best = x.key;
+    }
+    fail(where, key + ": unknown key" + (best_d <= 4 ? " (did you mean '" + best + "'?)" : std::string()));
+  }
+  auto bad = [&](const std::string& what) { fail(where, key + ": " + what + " '" + value + "'"); };
+  const char* b = value.data();
+  const char* end = b + value.size();
+  switch (e->kind) {
+    case ConfigEntry::Kind::Int: {
+      int v = 0;
+      auto r = std::from_chars(b, end, v);
+      if (value.empty() || r.ec != std::errc() || r.ptr != end) bad("expected an integer, got");
+      *static_cast<int*>(e->ptr) = v;
+      break;
+    }
+    case ConfigEntry::Kind::Uint64: {
+      uint64_t v = 0;
+      auto r = std::from_chars(b, end, v);
+      if (value.empty() || r.ec != std::errc() || r.ptr != end) bad("expected a non-negative integer, got");
+      *static_cast<uint64_t*>(e->ptr) = v;
+      break;
+    }
+    case ConfigEntry::Kind::Double: {
+      errno = 0;
+      char* stop = nullptr;
+      const double v = std::strtod(value.c_str(), &stop);
+      if (value.empty() || stop != value.c_str() + value.size() || errno != 0 || !std::isfinite(v))
+        bad("expected a finite number, got");
+      *static_cast<double*>(e->ptr) = v;
+      break;
+    }
+    case ConfigEntry::Kind::Bool:
+      if (value == "true" || value == "1" || value == "on" || value == "yes")
+        *static_cast<bool*>(e->ptr) = true;
+      else if (value == "false" || value == "0" || value == "off" || value == "no")
+        *static_cast<bool*>(e->ptr) = false;
+      else
+        bad("expected true or false, got");
+      break;
+    case ConfigEntry::Kind::String:
+      *static_cast<std::string*>(e->ptr) = value;
+      break;
+    case ConfigEntry::Kind::OpacityMode:
+      if (value == "sum_squares")
+        *static_cast<OpacityRegMode*>(e->ptr) = OpacityRegMode::SumSquares;
+      else if (value == "mean_abs")
+        *static_cast<OpacityRegMode*>(e->ptr) = OpacityRegMode::MeanAbs;
+      else
+        bad("expected sum_squares or mean_abs, got");
+      break;
+  }
+}
+
+void apply_overrides(TrainConfig& c, const std::vector<std::string>& kv, const std::string& where) {
+  for (const std::string& s : kv) {
+    const size_t eq = s.find('=');
+    if (eq == std::string::npos || eq == 0) fail(where, "'" + s + "': expected key=value");
+    set_config_value(c, s.substr(0, eq), s.substr(eq + 1), where);
+  }
+}
+
+void validate_config(const TrainConfig& c) {
+  auto need = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) fail("config", key + ": " + what);
+  };
+  TrainConfig copy = c;
+  for (const ConfigEntry& e : config_entries(copy)) {
+    if (e.kind == ConfigEntry::Kind::Double) {
+      const double v = *static_cast<double*>(e.ptr);
+      need(std::isfinite(v) && v >= 0, e.key, "must be finite and >= 0");
+    } else if (e.kind == ConfigEntry::Kind::Int) {
+      need(*static_cast<int*>(e.ptr) >= 0, e.key, "must be >= 0");
+    }
+  }
+  need(c.batch >= 1, "batch", "must be >= 1");
+  need(c.resolution == 0 || c.resolution >= 16, "resolution", "must be 0 or >= 16");
+  need(c.face_scale_divisor > 0, "face_scale_divisor", "must be > 0");
+  need(c.scale_max > 0, "scale_max", "must be > 0");
+  need(c.s1.opacity > 0 && c.s1.opacity < 1, "s1.opacity", "must be in (0, 1)");
+  need(c.s1.init_scale > 0 && c.s1.init_scale < c.scale_max, "s1.init_scale", "must be in (0, scale_max)");
+  need(c.s1.init_color > 0 && c.s1.init_color < 1, "s1.init_color", "must be in (0, 1)");
+  need(c.s2.init_color >= 0 && c.s2.init_color <= 1, "s2.init_color", "must be in [0, 1]");
+  need(c.s1.knn_k >= 2, "s1.knn.k", "must be >= 2 (the set holds the Gaussian itself)");
+  need(c.s1.knn_every >= 1, "s1.knn.every", "must be >= 1");
+  need(c.s1.densify_split_div > 0, "s1.densify.split_div", "must be > 0");
+  need(c.s1.max_gaussians >= 1, "s1.max_gaussians", "must be >= 1");
+  need(c.s2.texture_size >= 4 && c.s2.texture_size <= 8192, "s2.texture_size", "must be in [4, 8192]");
+  need(c.s3.prune_threshold < 1, "s3.prune_threshold", "must be < 1");
+  need(c.log_every >= 1, "log_every", "must be >= 1");
+  need(c.premultiplied == "auto" || c.premultiplied == "true" || c.premultiplied == "false", "premultiplied",
+       "must be auto, true or false");
+}
+
+std::vector<std::pair<std::string, std::string>> config_to_pairs(const TrainConfig& c) {
+  TrainConfig copy = c;
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const ConfigEntry& e : config_entries(copy)) out.emplace_back(e.key, config_value_string(e));
+  return out;
+}
+
+}  // namespace haha

@@ -1,0 +1,141 @@
+// Every hyperparameter of a HAHA training run (method.md section 3), the two presets and
+// key=value overrides. The config is a plain struct; entries() lists each field once with
+// its dotted key, so parsing, printing and saving (RUN/config.json, written by the data
+// layer) never go out of sync with the struct.
+//
+// Presets:
+//   paper  the published schedule: 3000 / 2500 / 5000 steps, batch 4, 544 px renders, the
+//          release's learning rates and loss weights, except two values that were re-measured
+//          for this implementation's loss normalisation (s1.densify.grad, s3.w.opacity;
+//          see their comments).
+//   tiny   the CPU demo: 128 px, batch 1, short stages and proportionally larger learning
+//          rates, sized so that `haha synth` + `haha train` + `haha eval` fit in about ten
+//          minutes on two cores.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "train/losses.h"
+
+namespace haha {
+
+struct LossWeights {
+  double l2 = 1.0;
+  double ssim = 0.1;     // on (1 - SSIM)
+  double sobel = 1.0;    // release edge loss
+  double lpips = 0.01;   // only when LPIPS weights are supplied
+  double knn = 0.01;
+  double dice = 0.1;     // silhouette Dice
+  double tv = 0.01;      // texture TV (stage 2)
+  double opacity = 0.0;    // opacity regulariser (stage 3 sets its own)
+};
+
+struct Stage1Config {
+  int steps = 3000;
+  double lr_offset_init = 1.6e-4, lr_offset_final = 1.6e-6;  // log-linear over the stage
+  double lr_rotation = 5e-3, lr_scale = 5e-3, lr_color = 5e-3;
+  double lr_pose = 2e-4;       // global orient, body pose, transl, betas
+  double lr_pose_fine = 2e-5;  // jaw, hands
+  bool refine_pose = true;
+  double opacity = 0.99;       // held fixed during the stage
+  double init_scale = 0.015;   // activated local scale at start (units of the face scale k)
+  double init_color = 0.5;
+  LossWeights w{};
+  // Face-bound densification (clone / split, children keep the parent face).
+  int densify_from = 100, densify_until = 2500, densify_every = 201;
+  // Mean screen-space gradient norm (3DGS NDC units). The release's 5e-5 sits at the median
+  // of this statistic with these losses (every other visible Gaussian would densify); 2e-4
+  // is about the 90th percentile, measured on the synthetic subject.
+  double densify_grad = 2e-4;
+  double densify_clone_scale = 0.005;  // max local scale <= this: clone, else split
+  double densify_split_div = 1.6;   // split children's scales are divided by this
+  double densify_split_std = 0.2;   // split offsets ~ N(0, std * scale), outer side of the face
+  int max_gaussians = 200000;
+  int knn_k = 3;
+  int knn_every = 1;                // recompute neighbour sets every n steps (and after densify)
+};
+
+struct Stage2Config {
+  int steps = 2500;
+  double lr_texture = 0.01;
+  int texture_size = 512;
+  double init_color = 0.5;
+  LossWeights w{1.0, 0.1, 0.0, 0.01, 0.0, 0.0, 0.01, 0.0};
+};
+
+struct Stage3Config {
+  int steps = 5000;
+  double lr_opacity = 0.05, lr_color = 5e-3;
+  // Stage-1 loss + opacity regulariser + Dice. The paper's 0.001 sum(o^2) outweighs the
+  // (pixel-mean) image losses by about 1e3 and deletes every Gaussian (measured); 1e-6 lets
+  // the image and Dice terms decide which Gaussians matter.
+  LossWeights w{1.0, 0.1, 1.0, 0.01, 0.01, 0.1, 0.0, 1e-6};
+  OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
+  double prune_threshold = 0.1;  // opacity below this: deleted
+  int prune_every = 201;         // and once at the end of the stage
+  double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres)
+};
+
+struct TrainConfig {
+  std::string preset = "paper";
+  uint64_t seed = 0;
+  int resolution = 544;          // longer image side used for training; 0 = the dataset's
+  int batch = 4;                 // frames per step (gradients averaged)
+  double face_scale_divisor = 0.05;
+  double scale_max = 0.1;        // scale activation: s = scale_max * sigmoid(logit)
+  std::string premultiplied = "auto";  // images already composited on black: auto|true|false
+  int checkpoint_every = 500;    // steps (plus every stage end)
+  int log_every = 50;            // progress lines
+  bool random_background = true; // stages 1 and 3
+  Stage1Config s1{};
+  Stage2Config s2{};
+  Stage3Config s3{};
+  // Ablations of the paper's table (they zero the weight wherever it is used).
+  bool use_sobel = true, use_opacity_reg = true, use_dice = true;
+  // Test-time pose optimisation defaults for `haha eval` (saved with the run).
+  int eval_tto_steps = 100;
+  double eval_lr_pose = 3e-3, eval_lr_pose_fine = 3e-4;
+  double max_cache_mb = 2048;    // per-frame caches of stages 2 and 3 (posed mesh rasters)
+  int nan_patience = 20;         // consecutive skipped (non-finite) steps before giving up
+
+  int total_steps() const { return s1.steps + s2.steps + s3.steps; }
+};
+
+// One field of the config, addressed by its dotted key.
+struct ConfigEntry {
+  enum class Kind { Int, Uint64, Double, Bool, String, OpacityMode };
+  std::string key;
+  Kind kind;
+  void* ptr;
+  std::string help;
+};
+
+// Every field of `c` (pointers into it), in a fixed order.
+std::vector<ConfigEntry> config_entries(TrainConfig& c);
+
+// The value of an entry as text (doubles in the shortest form that reads back exactly;
+// bools "true"/"false").
+std::string config_value_string(const ConfigEntry& e);
+
+// "paper" or "tiny"; throws haha::Error "--preset: unknown preset 'x' (paper, tiny)".
+TrainConfig make_preset(const std::string& name);
+
+// Sets one key from text. Throws haha::Error "<where>: <key>: <problem>" for an unknown key
+// (with a close match suggested) or an unparsable / out-of-range value.
+void set_config_value(TrainConfig& c, const std::string& key, const std::string& value,
+                      const std::string& where = "override");
+
+// "key=value" strings, in order; the same errors.
+void apply_overrides(TrainConfig& c, const std::vector<std::string>& kv, const std::string& where = "override");
+
+// Checks ranges that span fields (steps >= 0, batch >= 1, lrs >= 0, ...). Throws
+// haha::Error "config: <key>: <problem>".
+void validate_config(const TrainConfig& c);
+
+// (key, value) pairs of every entry, in entries() order.
+std::vector<std::pair<std::string, std::string>> config_to_pairs(const TrainConfig& c);
+
+}  // namespace haha

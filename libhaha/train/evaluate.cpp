@@ -1,0 +1,233 @@
+#include "train/evaluate.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "body/lbs.h"
+#include "core/error.h"
+#include "train/adam.h"
+#include "train/avatar_render.h"
+#include "train/image_loss.h"
+#include "train/losses.h"
+
+namespace haha {
+
+namespace {
+
+constexpr int kPoseBody = 66, kEyesFirst = 69, kEyesEnd = 75;
+constexpr int kBodyGroup = kPoseBody + 3;
+constexpr int kFineGroup = kNumPoseValues - kPoseBody - (kEyesEnd - kEyesFirst);
+
+void pack(const SmplxParams& p, std::vector<float>& body, std::vector<float>& fine) {
+  body.resize(kBodyGroup);
+  fine.resize(kFineGroup);
+  for (int q = 0; q < kPoseBody; ++q) body[size_t(q)] = p.pose[size_t(q)];
+  for (int q = 0; q < 3; ++q) body[size_t(kPoseBody + q)] = p.transl[size_t(q)];
+  int o = 0;
+  for (int q = kPoseBody; q < kNumPoseValues; ++q)
+    if (q < kEyesFirst || q >= kEyesEnd) fine[size_t(o++)] = p.pose[size_t(q)];
+}
+
+void unpack(const std::vector<float>& body, const std::vector<float>& fine, SmplxParams& p) {
+  for (int q = 0; q < kPoseBody; ++q) p.pose[size_t(q)] = body[size_t(q)];
+  for (int q = 0; q < 3; ++q) p.transl[size_t(q)] = body[size_t(kPoseBody + q)];
+  int o = 0;
+  for (int q = kPoseBody; q < kNumPoseValues; ++q)
+    if (q < kEyesFirst || q >= kEyesEnd) p.pose[size_t(q)] = fine[size_t(o++)];
+}
+
+bool finite_all(const std::vector<float>& v) {
+  for (float x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+}  // namespace
+
+int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
+  int64_t b = 0;
+  if (gaussians) b += int64_t(a.gaussians.size()) * (56 + 4);
+  if (mesh) b += int64_t(a.texture.width) * a.texture.height * 3;
+  return b;
+}
+
+VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>& frames, const EvalOptions& opt) {
+  if (!v.avatar) fail("evaluate", v.name + ": no avatar");
+  const Avatar& a = *v.avatar;
+  const BodyModel& body = a.body;
+  if (body.num_faces <= 0) fail("evaluate", v.name + ": the avatar has no body model");
+  if (v.mesh && (a.texture.width <= 0 || a.texture.rgb.size() != size_t(a.texture.width) * a.texture.height * 3))
+    fail("evaluate", v.name + ": the avatar has no texture");
+  VariantEval out;
+  out.name = v.name;
+  out.mesh = v.mesh;
+  out.gaussians = v.gaussians;
+  out.num_gaussians = v.gaussians ? a.gaussians.size() : 0;
+  out.storage_bytes = storage_bytes(a, v.mesh, v.gaussians);
+  if (frames.empty()) return out;
+
+  Lbs<float> lbs(body);
+  LbsCache<float> cache;
+  const BoundGaussians& bg = a.gaussians;
+  GaussianSetView gv;
+  gv.count = bg.size();
+  gv.face = bg.face.data();
+  gv.offset = bg.offset.data();
+  gv.rotation = bg.rotation.data();
+  gv.scale = bg.scale.data();
+  gv.color = bg.color.data();
+  gv.opacity = bg.opacity.data();
+  const TextureView tex{a.texture.width, a.texture.height, 3, a.texture.rgb.data()};
+  AvatarRenderBuffers buf;
+  LossScratch<float> scratch;
+  std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, gt, d_image, sil, d_sil, d_alpha;
+
+  for (size_t fi = 0; fi < frames.size(); ++fi) {
+    const TrainFrame& f = frames[fi];
+    const int W = f.camera.width, H = f.camera.height, P = W * H;
+    if (f.rgb.size() != size_t(P) * 3 || f.mask.size() != size_t(P)) fail(f.name, "image buffers do not match the camera");
+    gt.resize(3 * size_t(P));
+    composite_ground_truth(f.rgb.data(), f.mask.data(), P, opt.premultiplied, opt.background, gt.data());
+    SmplxParams p = f.params;
+    p.betas = a.betas;
+    if (!a.expression.empty()) p.expression = a.expression;
+    if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
+
+    AvatarRenderRequest req;
+    req.camera = &f.camera;
+    req.body = &body;
+    req.verts = verts.data();
+    req.face_scale_divisor = a.face_scale_divisor;
+    req.gaussians = v.gaussians ? &gv : nullptr;
+    req.texture = v.mesh ? &tex : nullptr;
+    for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
+
+    FrameEval fe;
+    // Test-time pose optimisation: the avatar is frozen, the frame's pose and transl move.
+    if (opt.tto_steps > 0) {
+      Adam adam;
+      const int gb = adam.add_group("body", kBodyGroup, opt.lr_pose);
+      const int gf = adam.add_group("fine", kFineGroup, opt.lr_pose_fine);
+      std::vector<float> pb, pf, db(kBodyGroup), dfn(kFineGroup);
+      SmplxParams best = p;
+      double best_loss = INFINITY;
+      for (int s = 0; s <= opt.tto_steps; ++s) {
+        lbs.forward(p, verts.data(), nullptr, &cache);
+        render_avatar(req, buf);
+        d_image.assign(3 * size_t(P), 0.0f);
+        double loss = l2_loss<float>(buf.image.data(), gt.data(), H, W, nullptr, d_image.data(), 1.0f);
+        loss += opt.tto_w_ssim *
+                ssim_loss<float>(buf.image.data(), gt.data(), H, W, scratch, nullptr, d_image.data(), float(opt.tto_w_ssim));
+        const float* da = nullptr;
+        if (opt.tto_w_dice > 0 && v.gaussians) {
+          sil.resize(size_t(P));
+          d_sil.assign(size_t(P), 0.0f);
+          silhouette_union(buf.mesh.mask, buf.alpha.data(), P, sil.data());
+          loss += opt.tto_w_dice * dice_loss(sil.data(), f.mask.data(), P, d_sil.data(), float(opt.tto_w_dice));
+          d_alpha.resize(size_t(P));
+          silhouette_union_backward(buf.mesh.mask, d_sil.data(), P, d_alpha.data());
+          da = d_alpha.data();
+        }
+        if (s == 0) fe.tto_loss_start = loss;
+        if (loss < best_loss) best_loss = loss, best = p;  // keep the best pose seen
+        if (s == opt.tto_steps) break;
+        d_verts.assign(3 * size_t(body.num_verts), 0.0f);
+        AvatarRenderGrads gr;
+        gr.verts = d_verts.data();
+        render_avatar_backward(req, buf, d_image.data(), da, nullptr, gr);
+        SmplxGrad<float> sg = lbs.make_grad(p);
+        lbs.backward(p, cache, d_verts.data(), nullptr, sg);
+        SmplxParams gp;
+        gp.pose = sg.pose;
+        gp.transl = sg.transl;
+        pack(gp, db, dfn);
+        if (!finite_all(db) || !finite_all(dfn)) break;  // keep the last finite pose
+        pack(p, pb, pf);
+        adam.step(gb, pb.data(), db.data());
+        adam.step(gf, pf.data(), dfn.data());
+        unpack(pb, pf, p);
+      }
+      fe.tto_loss_end = best_loss;
+      p = best;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    lbs.forward(p, verts.data(), nullptr, nullptr);
+    render_avatar(req, buf);
+    fe.render_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    fe.psnr = psnr(buf.image.data(), gt.data(), H, W);
+    fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
+    if (opt.lpips) fe.lpips = opt.lpips->distance(buf.image.data(), gt.data(), H, W);
+    if (int(fi) < opt.keep_images) {
+      fe.image = buf.image;
+      fe.ground_truth = gt;
+      fe.gaussian_layer = buf.color_front;  // premultiplied: the Gaussians in front of the mesh, on black
+      fe.mesh_layer.assign(3 * size_t(P), 0.0f);
+      if (buf.mesh.mask)
+        for (int q = 0; q < P; ++q)
+          for (int c = 0; c < 3; ++c)
+            fe.mesh_layer[3 * size_t(q) + c] = buf.mesh.mask[q] * buf.mesh.color[3 * size_t(q) + c];
+    }
+    out.frames.push_back(std::move(fe));
+  }
+  const double n = double(out.frames.size());
+  out.psnr = out.ssim = out.render_ms = 0;
+  double lp = 0;
+  for (const FrameEval& fe : out.frames) {
+    out.psnr += fe.psnr / n;
+    out.ssim += fe.ssim / n;
+    out.render_ms += fe.render_ms / n;
+    lp += fe.lpips / n;
+  }
+  out.lpips = opt.lpips ? lp : -1;
+  return out;
+}
+
+const char* region_name(BodyRegion r) {
+  switch (r) {
+    case BodyRegion::head: return "head/hair";
+    case BodyRegion::torso: return "torso";
+    case BodyRegion::arms: return "arms";
+    case BodyRegion::hands: return "hands";
+    case BodyRegion::legs: return "legs";
+    case BodyRegion::feet: return "feet";
+    default: return "?";
+  }
+}
+
+BodyRegion joint_region(int j) {
+  // SMPL-X joints: 0 pelvis, 1/2 hips, 3/6/9 spine, 4/5 knees, 7/8 ankles, 10/11 feet,
+  // 12 neck, 13/14 collars, 15 head, 16/17 shoulders, 18/19 elbows, 20/21 wrists,
+  // 22 jaw, 23/24 eyes, 25..54 fingers.
+  if (j == 12 || j == 15 || (j >= 22 && j <= 24)) return BodyRegion::head;
+  if (j == 0 || j == 3 || j == 6 || j == 9 || j == 13 || j == 14) return BodyRegion::torso;
+  if (j >= 16 && j <= 21) return BodyRegion::arms;
+  if (j >= 25) return BodyRegion::hands;
+  if (j == 1 || j == 2 || j == 4 || j == 5) return BodyRegion::legs;
+  return BodyRegion::feet;  // 7, 8, 10, 11
+}
+
+std::vector<BodyRegion> face_regions(const BodyModel& body) {
+  std::vector<BodyRegion> r(size_t(body.num_faces), BodyRegion::torso);
+  const int J = kNumJoints;
+  if (body.weights.size() != size_t(body.num_verts) * J) return r;
+  for (int f = 0; f < body.num_faces; ++f) {
+    double w[kNumJoints] = {};
+    for (int k = 0; k < 3; ++k) {
+      const int v = body.faces[3 * size_t(f) + size_t(k)];
+      for (int j = 0; j < J; ++j) w[j] += body.weights[size_t(v) * J + size_t(j)];
+    }
+    r[size_t(f)] = joint_region(int(std::max_element(w, w + J) - w));
+  }
+  return r;
+}
+
+std::vector<int> gaussians_per_region(const BodyModel& body, const BoundGaussians& g) {
+  const std::vector<BodyRegion> fr = face_regions(body);
+  std::vector<int> counts(size_t(BodyRegion::count), 0);
+  for (int32_t f : g.face)
+    if (f >= 0 && f < body.num_faces) ++counts[size_t(fr[size_t(f)])];
+  return counts;
+}
+
+}  // namespace haha

@@ -1,0 +1,71 @@
+// Evaluation of trained avatars on held-out frames (method.md section 4): test-time pose
+// optimisation with the avatar frozen, then PSNR / SSIM (/ LPIPS-Alex) over full frames on
+// a fixed background, Gaussian counts, storage and render time, for the paper's stage
+// table: textured mesh only / full Gaussians / naive merge / HAHA filtered. No file I/O
+// (the data layer writes the report and the contact sheet).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "body/avatar.h"
+#include "train/lpips.h"
+#include "train/trainer.h"
+
+namespace haha {
+
+// One row of the stage table: which layers of which avatar are rendered.
+struct EvalVariant {
+  std::string name;              // "mesh only", "full Gaussians", ...
+  const Avatar* avatar = nullptr;
+  bool mesh = true;              // textured mesh layer
+  bool gaussians = true;         // Gaussian layer (occluded by the mesh when both)
+};
+
+struct EvalOptions {
+  int tto_steps = 100;             // test-time pose optimisation steps (0 = off)
+  double lr_pose = 3e-3;           // global orient, body pose, transl
+  double lr_pose_fine = 3e-4;      // jaw, hands
+  double tto_w_ssim = 0.1, tto_w_dice = 0.1;  // TTO loss: L2 + w (1 - SSIM) + w Dice
+  float background[3] = {0, 0, 0};
+  bool premultiplied = false;      // see TrainInput
+  LpipsNet<float>* lpips = nullptr;  // AlexNet LPIPS metric; null = unavailable
+  int keep_images = 0;             // frames (from the first) whose layers are kept for pictures
+};
+
+struct FrameEval {
+  double psnr = 0, ssim = 0, lpips = -1;  // lpips < 0: unavailable
+  double render_ms = 0;                   // LBS + render of the final pose
+  double tto_loss_start = 0, tto_loss_end = 0;
+  // Kept for the first keep_images frames: (H, W, 3) images.
+  std::vector<float> image, gaussian_layer, mesh_layer, ground_truth;
+};
+
+struct VariantEval {
+  std::string name;
+  bool mesh = false, gaussians = false;
+  int num_gaussians = 0;
+  int64_t storage_bytes = 0;
+  double psnr = 0, ssim = 0, lpips = -1, render_ms = 0;  // means over frames
+  std::vector<FrameEval> frames;
+};
+
+// Bytes to store the variant: 56 per Gaussian (14 float32 values, as the paper counts)
+// plus 4 for its face index, plus the texture as 8-bit RGB when the mesh is used.
+int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians);
+
+// Evaluates one variant on the frames (their params are the initial poses). Throws
+// haha::Error for an avatar without a body, texture (mesh variants) or frames of
+// different sizes.
+VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>& frames, const EvalOptions& opt);
+
+// Body regions by the dominant skinning joint of each face (sum of its corners' weights).
+enum class BodyRegion { head, torso, arms, hands, legs, feet, count };
+const char* region_name(BodyRegion r);
+BodyRegion joint_region(int joint);
+std::vector<BodyRegion> face_regions(const BodyModel& body);
+// Gaussians per region (index = BodyRegion) of a set bound to `body`.
+std::vector<int> gaussians_per_region(const BodyModel& body, const BoundGaussians& g);
+
+}  // namespace haha
