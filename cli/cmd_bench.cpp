@@ -326,7 +326,12 @@ HAHA_COMMAND(bench) {
     }
     if (!skip.count("packing")) {
       section("packing", [&] {
-        r.packing = haha::sweep_packing(filtered, haha::default_pack_settings(filtered.texture.width), format_codec(), ev, log);
+        const haha::PackOptions defaults;
+        r.packing = haha::sweep_packing(
+            filtered,
+            haha::default_pack_settings(filtered.texture.width, haha::texture_extension(defaults.texture_codec),
+                                        defaults.texture_quality),
+            format_codec(), ev, log);
       });
       r.notes.push_back("Packing: PSNR vs original compares renders of the unpacked .glb with renders of the trained "
                         "avatar on the same poses; the unpacked avatar uses the body model's pose correctives (as "

@@ -46,7 +46,7 @@ void parse_bits(const std::string& text, const char* option, std::map<std::strin
 
 HAHA_COMMAND(pack) {
   struct Opts {
-    std::string run, out, model, gaussian_bits, mesh_bits, texture = "webp";
+    std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg";
     int texture_size = 0, texture_quality = 95;
     bool lossless = false, splats = false, correctives = false;
   };

@@ -187,7 +187,7 @@ std::vector<FilterPoint> sweep_opacity_weights(const RetrainSetup& setup, const 
 
 // ---- 2 packing --------------------------------------------------------------------------
 
-std::vector<PackSetting> default_pack_settings(int tex) {
+std::vector<PackSetting> default_pack_settings(int tex, const std::string& default_codec, int default_quality) {
   std::vector<PackSetting> s;
   PackSetting ref;
   ref.name = "lossless float32";
@@ -210,14 +210,14 @@ std::vector<PackSetting> default_pack_settings(int tex) {
     p.texture_quality = q;
     p.texture_size = size == tex ? 0 : size;
     p.name = codec + (codec == "png" ? "" : " q" + std::to_string(q)) + " " + std::to_string(size) + "px";
-    if (codec == "jpg" && q == 95 && size == tex) p.name += " (default)";
+    if (codec == default_codec && (codec == "png" || q == default_quality) && size == tex) p.name += " (default)";
     return p;
   };
   s.push_back(tex_setting("png", 95, tex));
-  s.push_back(tex_setting("jpg", 95, tex));
-  s.push_back(tex_setting("jpg", 75, tex));
-  s.push_back(tex_setting("webp", 90, tex));
-  for (int size = tex / 2; size >= 32 && size >= tex / 8; size /= 2) s.push_back(tex_setting("jpg", 95, size));
+  for (const char* codec : {"jpg", "webp"})
+    for (int q : {95, 75}) s.push_back(tex_setting(codec, q, tex));
+  for (int size = tex / 2; size >= 32 && size >= tex / 8; size /= 2)
+    s.push_back(tex_setting(default_codec, default_quality, size));
   return s;
 }
 

@@ -123,10 +123,12 @@ struct PackPoint {
 inline constexpr double kPsnrCap = 100.0;
 
 // Lossless reference; all Gaussian attributes at 4..16 bits (texture png, so only the
-// Gaussians' quantization differs); the texture as png / jpg (q 95 = the format default,
-// q 75) / webp at the trained size and jpg q 95 at halved sizes down to 1/8 (>= 32 px),
-// with the Gaussians at the format's default bits.
-std::vector<PackSetting> default_pack_settings(int trained_texture_size);
+// Gaussians' quantization differs); the texture as png, jpg and webp at quality 95 and 75
+// at the trained size, and in the format's default codec / quality at halved sizes down to
+// 1/8 (>= 32 px), with the Gaussians at the format's default bits. The setting equal to the
+// format's defaults (default_codec, default_quality, trained size) is named "(default)".
+std::vector<PackSetting> default_pack_settings(int trained_texture_size, const std::string& default_codec = "webp",
+                                               int default_quality = 95);
 
 // The unpacked avatar is rendered the way `haha render --model` does: when the file carries
 // no pose correctives, the original body's are used, so only quantization is measured.

@@ -95,6 +95,11 @@ std::string gnuplot_script(const PlotSpec& spec, const std::string& png_path) {
     << (cairo ? " font \"DejaVu Sans,11\"" : "") << "\n";
   s << "set output " << quoted(png_path) << "\n";
   s << "set encoding utf8\n";
+  // Ten distinct colours dark enough for text labels on white (gnuplot's own sixth is a
+  // pale yellow).
+  static const char* kColours[] = {"#1f5fa8", "#d62728", "#2ca02c", "#e07000", "#7b4fb0",
+                                   "#8c564b", "#c2338f", "#138a96", "#555555", "#7a7a00"};
+  for (int i = 0; i < 10; ++i) s << "set linetype " << (i + 1) << " lc rgb \"" << kColours[i] << "\"\n";
   s << "set title " << quoted(spec.title);
   {
     std::istringstream lines(spec.subtitle);
@@ -166,15 +171,15 @@ std::string gnuplot_script(const PlotSpec& spec, const std::string& png_path) {
     const std::string axes = se.right_axis ? " axes x1y2" : "";
     s << (i ? ", \\\n     " : "") << "$d" << i << " using 1:2" << axes;
     if (se.dashed)
-      s << " with lines lw 2 dt 3 lc " << (i + 1);
+      s << " with lines lw 2 dt 3 lc " << (i % 10 + 1);
     else
-      s << " with " << (se.lines ? "linespoints" : "points") << " lw 2 lc " << (i + 1) << " pt " << kPointTypes[i % 10]
+      s << " with " << (se.lines ? "linespoints" : "points") << " lw 2 lc " << (i % 10 + 1) << " pt " << kPointTypes[i % 10]
         << " ps 1.3" << (se.right_axis ? " dt 2" : "");
     s << " title " << quoted(se.label);
     if (!se.point_labels.empty())
       for (int below = 0; below < 2; ++below)  // column 4 says where each label goes
         s << ", \\\n     $d" << i << " using 1:2:(column(4) == " << below << " ? stringcolumn(3) : \"\")" << axes
-          << " with labels offset char 0.6," << (below ? "-0.8" : "0.6") << " left tc lt " << (i + 1)
+          << " with labels offset char 0.6," << (below ? "-0.8" : "0.6") << " left tc lt " << (i % 10 + 1)
           << (cairo ? " font \",9\"" : "") << " notitle";
   }
   s << "\nunset output\n";

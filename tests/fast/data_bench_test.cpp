@@ -131,7 +131,7 @@ TEST(BenchMachine, NamesTheCpuAndCountsCores) {
 }
 
 TEST(BenchPackSettings, CoverTheReferenceBitsAndTextures) {
-  const std::vector<PackSetting> s = default_pack_settings(256);
+  const std::vector<PackSetting> s = default_pack_settings(256, "webp", 95);
   ASSERT_FALSE(s.empty());
   EXPECT_TRUE(s[0].lossless);
   std::vector<int> bits;
@@ -146,6 +146,25 @@ TEST(BenchPackSettings, CoverTheReferenceBitsAndTextures) {
   EXPECT_TRUE(std::is_sorted(bits.begin(), bits.end()));
   EXPECT_EQ(codecs, (std::set<std::string>{"png", "jpg", "webp"}));
   EXPECT_EQ(sizes, (std::set<int>{0, 128, 64, 32}));  // 0 = trained size
+  // Exactly one setting is the format's default, and the smaller sizes use its codec.
+  int defaults = 0;
+  for (const PackSetting& p : s) {
+    if (p.name.find("(default)") != std::string::npos) {
+      ++defaults;
+      EXPECT_EQ(p.texture_codec, "webp");
+      EXPECT_EQ(p.texture_quality, 95);
+      EXPECT_EQ(p.texture_size, 0);
+    }
+    if (p.group == "texture" && p.texture_size > 0) {
+      EXPECT_EQ(p.texture_codec, "webp") << p.name;
+    }
+  }
+  EXPECT_EQ(defaults, 1);
+  for (const PackSetting& p : default_pack_settings(256, "png", 95)) {
+    if (p.group == "texture" && p.texture_codec == "png") {
+      EXPECT_EQ(p.name.find("(default)") != std::string::npos, p.texture_size == 0) << p.name;
+    }
+  }
 }
 
 BenchResult fake_result() {

@@ -56,7 +56,7 @@ TEST(FormatCli, PackInfoUnpackRepackRender) {
   EXPECT_NE(slurp(out).find("paper's accounting"), std::string::npos);
 
   ASSERT_EQ(run("unpack '" + (dir / "a.glb").string() + "' --out '" + (dir / "un").string() + "'", out, err), 0) << slurp(err);
-  for (const char* f : {"texture.webp", "mesh.obj", "gaussians.ply", "summary.json", "avatar.npz", "body.npz", "config.json"})
+  for (const char* f : {"texture.jpg", "mesh.obj", "gaussians.ply", "summary.json", "avatar.npz", "body.npz", "config.json"})
     EXPECT_TRUE(fs::exists(dir / "un" / f)) << f;
   // The unpacked directory is a run directory again: a lossless repack restores exactly
   // what the first file decodes to.

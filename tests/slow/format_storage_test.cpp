@@ -96,7 +96,7 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
   ASSERT_GT(mean / double(ref.images[0].size()), 0.05);
 
   std::vector<Row> rows;
-  rows.push_back({"default (webp q95, 512)", PackOptions{}});
+  rows.push_back({"default (jpg q95, 512)", PackOptions{}});
   auto tex = [&](const char* name, TextureCodec c, int size) {
     PackOptions o;
     o.texture_codec = c;
