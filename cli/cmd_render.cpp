@@ -12,6 +12,7 @@
 #include <string>
 
 #include "command.h"
+#include "parse_rgb.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "format/avatar_loader.h"
@@ -22,21 +23,6 @@
 
 namespace {
 
-haha::Vec3f parse_rgb(const std::string& s) {
-  haha::Vec3f c;
-  std::istringstream in(s);
-  std::string part;
-  int k = 0;
-  while (std::getline(in, part, ',')) {
-    char* end = nullptr;
-    const float v = std::strtof(part.c_str(), &end);
-    if (k >= 3 || part.empty() || *end != '\0' || !std::isfinite(v))
-      haha::fail("--background", "expected three numbers r,g,b (e.g. 1,1,1), got '" + s + "'");
-    c[k++] = v;
-  }
-  if (k != 3) haha::fail("--background", "expected three numbers r,g,b (e.g. 1,1,1), got '" + s + "'");
-  return c;
-}
 
 // A front camera (looking along -Z, OpenCV axes) framing the box [lo, hi] with a margin.
 haha::Camera framing_camera(haha::Vec3f lo, haha::Vec3f hi, int size) {
@@ -87,7 +73,7 @@ HAHA_COMMAND(render) {
     if (!o->video.empty() && std::system("ffmpeg -version > /dev/null 2>&1") != 0) {
       haha::fail("--video", "the ffmpeg command is not installed; render without --video or install ffmpeg");
     }
-    const haha::Vec3f bg = parse_rgb(o->background);
+    const haha::Vec3f bg = haha::cli::parse_rgb(o->background);
     std::unique_ptr<haha::BodyModel> model;
     if (!o->model.empty()) model = std::make_unique<haha::BodyModel>(haha::load_body_model(o->model));
     const haha::AvatarRuntime avatar = haha::AvatarRuntime::load(o->avatar, model.get());

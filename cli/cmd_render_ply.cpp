@@ -7,6 +7,7 @@
 #include <string>
 
 #include "command.h"
+#include "parse_rgb.h"
 #include "core/device.h"
 #include "core/error.h"
 #include "io/camera_json.h"
@@ -16,25 +17,6 @@
 #include "cuda/gaussian_raster_cuda.h"
 #endif
 
-namespace {
-
-haha::Vec3f parse_background(const std::string& s) {
-  haha::Vec3f c;
-  std::istringstream in(s);
-  std::string part;
-  int k = 0;
-  while (std::getline(in, part, ',')) {
-    char* end = nullptr;
-    const float v = std::strtof(part.c_str(), &end);
-    if (k >= 3 || part.empty() || *end != '\0' || !std::isfinite(v))
-      haha::fail("--background", "expected three numbers r,g,b (e.g. 1,1,1), got '" + s + "'");
-    c[k++] = v;
-  }
-  if (k != 3) haha::fail("--background", "expected three numbers r,g,b (e.g. 1,1,1), got '" + s + "'");
-  return c;
-}
-
-}  // namespace
 
 HAHA_COMMAND(render_ply) {
   struct Opts {
@@ -53,7 +35,7 @@ HAHA_COMMAND(render_ply) {
   sub->add_option("--device", o->device, "cpu or cuda (the same rasterizer on the GPU)")->capture_default_str();
   sub->callback([o] {
     const haha::Device device = haha::parse_device(o->device);
-    const haha::Vec3f bg = parse_background(o->background);
+    const haha::Vec3f bg = haha::cli::parse_rgb(o->background);
     const haha::Camera cam = haha::read_camera_json(o->camera);
     const haha::GaussianPly scene = haha::read_ply_3dgs(o->scene);
     haha::Image img(cam.width, cam.height, 3);
