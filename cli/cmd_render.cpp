@@ -16,7 +16,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "format/avatar_loader.h"
-#include "format/motion.h"
+#include "io/motion.h"
 #include "io/body_model_io.h"
 #include "io/camera_json.h"
 #include "io/image.h"

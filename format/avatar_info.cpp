@@ -157,7 +157,7 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   o << "; required:";
   for (auto& e : i.extensions_required) o << " " << e;
   o << "\n";
-  o << "storage (issue 6)\n";
+  o << "storage compared\n";
   std::snprintf(buf, sizeof buf, "%.3f", r.file_vs_paper);
   o << "  this file                          " << bytes(r.file_bytes) << " (" << buf << " x paper)\n";
   std::snprintf(buf, sizeof buf, "%.3f", r.avatar_part_vs_paper);

@@ -1,5 +1,5 @@
 // What `haha info` and `haha unpack` report about a packed avatar: per-part sizes,
-// quantization, extensions, and the storage comparison of issue 6 (this file vs. the same
+// quantization, extensions, and the storage comparison (this file vs. the same
 // Gaussians as a standard 3DGS .ply vs. the paper's float32 accounting).
 #pragma once
 

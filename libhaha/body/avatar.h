@@ -1,6 +1,6 @@
 // A trained HAHA avatar: what the trainer produces, `haha pack` stores and the loader
 // reads. Gaussians are bound to faces of the body mesh and live in their face's local
-// frame (method.md section 1): world mu' = k R mu + T, r' = R * r, s' = k s.
+// frame (docs/method.md section 1): world mu' = k R mu + T, r' = R * r, s' = k s.
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,7 @@
 // The SMPL-X body model as loaded from SMPLX_{NEUTRAL,MALE,FEMALE}.npz (or the procedural
 // stand-in written by `haha synth-body`, which uses exactly the same file layout).
 // All arrays are float32, row-major, structure of arrays. Layout facts:
-// ../shared/notes/method.md section 5.
+// docs/method.md section 5.
 #pragma once
 
 #include <cstdint>

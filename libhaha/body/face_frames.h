@@ -1,5 +1,5 @@
 // Per-face frames of the posed mesh and the transform of face-bound Gaussians into world
-// space (method.md section 1), forward and backward side by side.
+// space (docs/method.md section 1), forward and backward side by side.
 //
 //   T = (v0 + v1 + v2) / 3
 //   e = normalize(v2 - v1), n = normalize(e x (v0 - v1)), R = [e | n | e x n] (columns)

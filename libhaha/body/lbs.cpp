@@ -1,4 +1,4 @@
-// SMPL-X LBS forward and hand-written backward (method.md section 5).
+// SMPL-X LBS forward and hand-written backward (docs/method.md section 5).
 //
 // Data layout chosen for one-core speed (the per-vertex work is a few hundred flops, so
 // memory traffic decides):

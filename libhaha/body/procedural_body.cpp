@@ -35,7 +35,7 @@ double smoothstep(double e0, double e1, double x) {
   return t * t * (3 - 2 * t);
 }
 
-// SMPL-X kinematic tree (method.md section 1).
+// SMPL-X kinematic tree (docs/method.md section 1).
 constexpr int kParents[kNumJoints] = {-1, 0,  0,  0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  9,
                                       9,  12, 13, 14, 16, 17, 18, 19, 15, 15, 15, 20, 25, 26,
                                       20, 28, 29, 20, 31, 32, 20, 34, 35, 20, 37, 38, 21, 40,

@@ -27,7 +27,7 @@ struct EvalReport {
 // full Gaussians = stage 1, naive merge = stages 1 + 2, HAHA = all three.
 double variant_train_seconds(const EvalReport& r, size_t variant_index);
 
-// The requirement checks of the issue, on variants [mesh, full, naive, filtered]:
+// The method's claims checked on variants [mesh, full, naive, filtered]:
 // filtered count <= full / 2, PSNR(filtered) >= PSNR(full) - 0.5, >= PSNR(mesh) + 1.
 struct EvalChecks {
   bool count_ok = false, psnr_vs_full_ok = false, psnr_vs_mesh_ok = false;

@@ -1,5 +1,5 @@
-// Readers for the data formats users have (../shared/notes/method.md section 6), each
-// converting to the native Dataset (data/dataset.h) or, for motions, to SMPL-X frames.
+// Readers for the data formats users have (docs/method.md section 6), each
+// converting to the native Dataset (data/dataset.h); motions are io/motion.h.
 // Readers validate every file of the selected frames before returning (missing frames,
 // mismatched counts between images / masks / parameters, wrong array shapes, unreadable
 // images, non-finite values): each problem is one haha::Error naming the offending file.
@@ -86,23 +86,6 @@ struct SmplifyxOptions : ConvertOptions {
   FrameRange test{0, 0, 1};  // empty
 };
 Dataset read_smplifyx(const SmplifyxOptions& opt);
-
-// A motion for animation.
-struct Motion {
-  std::vector<SmplxParams> frames;
-  double fps = 30;
-  std::string source;  // file it came from
-};
-
-// AMASS: SMPL-X `*_stageii.npz` (poses (T, 165) in SMPL-X order, trans (T, 3), betas,
-// mocap_frame_rate) or SMPL+H (poses (T, 156) = 22 body joints + 2 x 15 hand joints, no
-// face; mocap_framerate). Hand poses assume a flat hand mean (values used as stored).
-// SMPL+H betas are a different shape space and are dropped; SMPL-X betas are kept.
-Motion read_amass(const std::string& path);
-
-// A motion file of either kind: AMASS (has `poses`) or a native SMPL-X parameter file
-// (io/smplx_params_io.h; fps from an optional `mocap_frame_rate`/`fps` scalar, else 30).
-Motion read_motion(const std::string& path, const BodyModel* model = nullptr);
 
 // Shared by the readers: the SMPL-X parameters of one fit dict (pickle). `where` names the
 // file in errors. Missing pose groups are zero; global_orient and body_pose are required.

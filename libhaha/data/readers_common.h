@@ -36,11 +36,6 @@ struct PixelTransform {
   Image apply(const Image& img) const;     // img is src_w x src_h
 };
 
-// Numbers of an npz key with a shape check (-1 = any), as doubles.
-std::vector<double> npz_numbers(const Npz& z, const std::string& key, const std::vector<int64_t>& shape);
-// A scalar (shape () or (1,)) of an npz key.
-double npz_scalar(const Npz& z, const std::string& key);
-
 // Mask from a .npy file: (H, W) or (H, W, 1) of bool, uint8, int or float. Integer masks
 // with values above 1 are 0..255; floats are clamped to [0, 1].
 Image read_mask_npy(const std::string& path);

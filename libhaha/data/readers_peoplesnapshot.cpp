@@ -1,4 +1,4 @@
-// PeopleSnapshot as preprocessed by InstantAvatar (method.md section 6).
+// PeopleSnapshot as preprocessed by InstantAvatar (docs/method.md section 6).
 #include <cmath>
 #include <filesystem>
 #include <set>

@@ -1,4 +1,4 @@
-// SMPLify-X style per-frame pickles (method.md section 6).
+// SMPLify-X style per-frame pickles (docs/method.md section 6).
 #include <algorithm>
 #include <filesystem>
 #include <map>

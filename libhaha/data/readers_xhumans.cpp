@@ -1,4 +1,4 @@
-// X-Humans takes (method.md section 6).
+// X-Humans takes (docs/method.md section 6).
 #include <algorithm>
 #include <filesystem>
 

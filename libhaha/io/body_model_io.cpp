@@ -1,4 +1,4 @@
-// SMPL-X model .npz reading / writing (layout: method.md section 5).
+// SMPL-X model .npz reading / writing (layout: docs/method.md section 5).
 #include "io/body_model_io.h"
 
 #include <cmath>

@@ -2,6 +2,7 @@
 
 #include <zip.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -337,6 +338,25 @@ void Npz::write(const std::string& path) const {
       fail(path, "cannot write archive: " + msg);
     }
   });
+}
+
+std::vector<double> npz_numbers(const Npz& z, const std::string& key, const std::vector<int64_t>& shape) {
+  const NpyArray& a = z.get(key, shape);
+  std::vector<double> v;
+  try {
+    v = a.as_double();
+  } catch (const Error& e) {
+    fail(z.path() + ": " + key, e.what());
+  }
+  for (double d : v)
+    if (!std::isfinite(d)) fail(z.path() + ": " + key, "non-finite value");
+  return v;
+}
+
+double npz_scalar(const Npz& z, const std::string& key) {
+  const NpyArray& a = z.get(key);
+  if (a.size() != 1) fail(z.path() + ": " + key, "expected a single number, found shape " + shape_string(a.shape));
+  return npz_numbers(z, key, a.shape)[0];
 }
 
 }  // namespace haha

@@ -70,4 +70,10 @@ class Npz {
 
 std::string shape_string(const std::vector<int64_t>& shape);
 
+// Numbers of an npz key with a shape check (-1 = any), as doubles; errors name the file
+// and key, also for non-finite values.
+std::vector<double> npz_numbers(const Npz& z, const std::string& key, const std::vector<int64_t>& shape);
+// A scalar (shape () or (1,)) of an npz key.
+double npz_scalar(const Npz& z, const std::string& key);
+
 }  // namespace haha

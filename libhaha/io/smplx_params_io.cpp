@@ -17,7 +17,7 @@ struct PoseKey {
   int first_joint;
   int joints;
 };
-// global_orient | body | jaw | leye | reye | left hand | right hand (method.md section 5)
+// global_orient | body | jaw | leye | reye | left hand | right hand (docs/method.md section 5)
 constexpr PoseKey kPoseKeys[] = {
     {"global_orient", kGlobalOrient, 1}, {"body_pose", kBodyFirst, 21},
     {"jaw_pose", kJaw, 1},               {"leye_pose", kLeftEye, 1},

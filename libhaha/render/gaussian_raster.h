@@ -15,7 +15,7 @@
 //                                                      visible Gaussians = depth / alpha)
 //   composite = color + T_final * background
 // With a mesh colour M as the background image this composite is exactly the HAHA merge
-// I = C_front + (1 - A) M (method.md section 2), and d/d(background) is dL/dM.
+// I = C_front + (1 - A) M (docs/method.md section 2), and d/d(background) is dL/dM.
 //
 // Buffers are caller-owned, row-major, float or double (the templates are instantiated
 // for both; double exists for finite-difference tests). Images are (H, W, C) with the

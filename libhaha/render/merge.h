@@ -1,5 +1,5 @@
 // Merge of the Gaussian layer in front of the mesh with the mesh and the background
-// (method.md section 2), forward and backward:
+// (docs/method.md section 2), forward and backward:
 //
 //     I = C_front + (1 - A) * (m * M + (1 - m) * B)
 //

@@ -1,4 +1,4 @@
-// One differentiable render of the HAHA avatar for a posed body (method.md section 2), the
+// One differentiable render of the HAHA avatar for a posed body (docs/method.md section 2), the
 // chain every stage and the evaluation share:
 //
 //   posed vertices --face frames--> world Gaussians --raster (occluded by D)--> C_front, A

@@ -1,4 +1,4 @@
-// Every hyperparameter of a HAHA training run (method.md section 3), the two presets and
+// Every hyperparameter of a HAHA training run (docs/method.md section 3), the two presets and
 // key=value overrides. The config is a plain struct; entries() lists each field once with
 // its dotted key, so parsing, printing and saving (RUN/config.json, written by the data
 // layer) never go out of sync with the struct.

@@ -1,4 +1,4 @@
-// Evaluation of trained avatars on held-out frames (method.md section 4): test-time pose
+// Evaluation of trained avatars on held-out frames (docs/method.md section 4): test-time pose
 // optimisation with the avatar frozen, then PSNR / SSIM (/ LPIPS-Alex) over full frames on
 // a fixed background, Gaussian counts, storage and render time, for the paper's stage
 // table: textured mesh only / full Gaussians / naive merge / HAHA filtered. No file I/O

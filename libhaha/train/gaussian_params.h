@@ -2,7 +2,7 @@
 // (written once, forward and backward side by side) and the bookkeeping of densification
 // and pruning (index lists that the optimiser's reindex() takes as well).
 //
-// Activations (method.md section 1; the release's):
+// Activations (docs/method.md section 1; the release's):
 //   scale   = scale_max * sigmoid(scale_logit)   (units of the face scale k)
 //   colour  = sigmoid(color_logit)               (linear RGB in (0, 1))
 //   opacity = sigmoid(opacity_logit)

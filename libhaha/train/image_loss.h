@@ -1,4 +1,4 @@
-// The weighted image loss of the HAHA stages (method.md section 3):
+// The weighted image loss of the HAHA stages (docs/method.md section 3):
 //   w.l2 L2 + w.ssim (1 - SSIM) + w.sobel Edge + w.lpips LPIPS-VGG
 // of a render against the ground truth, value and gradient together, plus the small
 // helpers the stages share (ground truth over a background, the silhouette union).

@@ -1,4 +1,4 @@
-// Image losses and regularisers of the HAHA trainer (method.md section 3), each a value
+// Image losses and regularisers of the HAHA trainer (docs/method.md section 3), each a value
 // and its gradient computed side by side in one function, templated on the scalar
 // (instantiated for float, used in training, and double, used by the finite-difference
 // tests).

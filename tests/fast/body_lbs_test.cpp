@@ -1,4 +1,4 @@
-// SMPL-X LBS: forward against a naive dense reference written from method.md section 5,
+// SMPL-X LBS: forward against a naive dense reference written from docs/method.md section 5,
 // properties (zero pose, rigid segments, regressor consistency, full turns), hand-written
 // backward against central finite differences in double for every parameter group, hard
 // cases, float/double agreement, determinism.

@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "data/readers.h"
+#include "io/motion.h"
 #include "data_test_util.h"
 #include "io/npy.h"
 #include "io/pickle.h"

@@ -20,7 +20,7 @@
 #include "data/dataset.h"
 #include "data/train_run.h"
 #include "format/avatar_npz.h"
-#include "format/motion.h"
+#include "io/motion.h"
 #include "io/image.h"
 
 namespace haha {

@@ -1,14 +1,11 @@
 // AMASS motions (SMPL-X stage-ii and SMPL+H), and motion files in general.
-#include <cmath>
+#include "io/motion.h"
 
 #include "core/error.h"
-#include "data/readers.h"
-#include "data/readers_common.h"
+#include "io/npy.h"
 #include "io/smplx_params_io.h"
 
 namespace haha {
-
-using namespace readers;
 
 namespace {
 
