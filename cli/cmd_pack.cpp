@@ -1,5 +1,5 @@
 // `haha pack`: a trained run directory (RUN/avatar.npz + RUN/config.json "model", see
-// format/avatar_npz.h) -> one .glb avatar (format/spec.md).
+// app/run_dir.h) -> one .glb avatar (format/spec.md).
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -7,6 +7,7 @@
 #include <sstream>
 #include <string>
 
+#include "app/run_dir.h"
 #include "command.h"
 #include "core/error.h"
 #include "format/avatar_npz.h"
@@ -77,7 +78,7 @@ HAHA_COMMAND(pack) {
       avatar = haha::load_avatar_npz(o->run);
       avatar.body = haha::load_body_model(o->model);
     } else {
-      avatar = haha::load_run_avatar(o->run, o->model);
+      avatar = haha::load_run_avatar(haha::RunDir(o->run), o->model);
     }
     haha::PackOptions opt;
     opt.lossless = o->lossless;

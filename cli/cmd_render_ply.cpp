@@ -6,16 +6,11 @@
 #include <sstream>
 #include <string>
 
+#include "app/render_ply.h"
 #include "command.h"
-#include "parse_rgb.h"
-#include "core/device.h"
-#include "core/error.h"
 #include "io/camera_json.h"
 #include "io/image.h"
-#include "io/ply_3dgs.h"
-#if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
-#include "cuda/gaussian_raster_cuda.h"
-#endif
+#include "parse_rgb.h"
 
 
 HAHA_COMMAND(render_ply) {
@@ -39,14 +34,7 @@ HAHA_COMMAND(render_ply) {
     const haha::Camera cam = haha::read_camera_json(o->camera);
     const haha::GaussianPly scene = haha::read_ply_3dgs(o->scene);
     haha::Image img(cam.width, cam.height, 3);
-    if (device == haha::Device::cuda) {
-#if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
-      const haha::ActivatedPly a = haha::activate(scene);
-      img.data = haha::cuda::render_gaussians_image_cuda(a.inputs(scene), cam, bg, o->antialiased);
-#endif
-    } else {
-      img.data = haha::render_ply_image(scene, cam, bg, o->antialiased);
-    }
+    img.data = haha::render_ply_on(device, scene, cam, bg, o->antialiased);
     haha::write_image(o->out, img);
     std::printf("%s: %dx%d, %d Gaussians (SH degree %d)\n", o->out.c_str(), cam.width, cam.height, scene.size(),
                 scene.sh_degree);

@@ -1,11 +1,10 @@
-// `haha train`: the three HAHA stages on a native dataset (data/train_run.h).
+// `haha train`: the three HAHA stages on a native dataset (app/train_run.h).
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "app/train_run.h"
 #include "command.h"
-#include "data/train_run.h"
-#include "format/avatar_npz.h"
 #include "train/config.h"
 
 HAHA_COMMAND(train) {
@@ -42,7 +41,6 @@ HAHA_COMMAND(train) {
     if (a->no_opacity_reg) a->run.overrides.push_back("use_opacity_reg=false");
     if (a->no_dice) a->run.overrides.push_back("use_dice=false");
     a->run.stop_after = a->stop_after;
-    a->run.save_avatar = [](const haha::Avatar& av, const std::string& path) { haha::save_avatar_npz(av, path); };
     haha::run_training(a->run);
   });
 }

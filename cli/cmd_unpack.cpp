@@ -6,10 +6,10 @@
 //   avatar.npz, body.npz, config.json   a run directory again: `haha pack DIR` repacks it
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 
+#include "app/run_dir.h"
 #include "command.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -19,18 +19,6 @@
 #include "io/body_model_io.h"
 #include "io/mesh_export.h"
 #include "io/ply_3dgs.h"
-
-namespace {
-
-void write_text(const std::string& path, const std::string& text) {
-  haha::write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    if (!f) haha::fail(path, "cannot write");
-  });
-}
-
-}  // namespace
 
 HAHA_COMMAND(unpack) {
   struct Opts {
@@ -48,7 +36,7 @@ HAHA_COMMAND(unpack) {
     const fs::path dir(o->out);
 
     const std::string tex = (dir / ("texture." + haha::texture_file_extension(u.info.texture_mime))).string();
-    write_text(tex, std::string(u.texture_image.begin(), u.texture_image.end()));
+    haha::write_text_file(tex, std::string(u.texture_image.begin(), u.texture_image.end()));
 
     haha::ExportMesh mesh;
     mesh.verts = a.body.v_template.data();
@@ -62,14 +50,11 @@ HAHA_COMMAND(unpack) {
 
     haha::write_ply_3dgs((dir / "gaussians.ply").string(), haha::rest_pose_ply(a));
 
-    // A run directory again (format/avatar_npz.h).
-    haha::save_avatar_npz(a, (dir / "avatar.npz").string());
-    haha::save_body_model(a.body, (dir / "body.npz").string());
-    write_text((dir / "config.json").string(), "{\"model\": \"body.npz\", \"unpacked_from\": " +
-                                                    nlohmann::json(o->in).dump() + "}\n");
+    // A run directory again (app/run_dir.h).
+    haha::write_unpacked_run(haha::RunDir(o->out), a, o->in);
 
     const haha::StorageReport r = haha::storage_report(u);
-    write_text((dir / "summary.json").string(), haha::avatar_summary_json(o->in, u, r).dump(2) + "\n");
+    haha::write_text_file((dir / "summary.json").string(), haha::avatar_summary_json(o->in, u, r).dump(2) + "\n");
     std::printf("%s: %d Gaussians, %d vertices, %d faces -> %s (texture, mesh.obj, gaussians.ply, summary.json, run files)\n",
                 o->in.c_str(), a.gaussians.size(), a.body.num_verts, a.body.num_faces, o->out.c_str());
   });

@@ -7,7 +7,6 @@
 #include "core/error.h"
 #include "format/avatar_unpack.h"
 #include "format/avatar_validate.h"
-#include "render/merge.h"
 
 namespace haha {
 
@@ -94,49 +93,13 @@ void AvatarRuntime::render(const Camera& cam, const PosedAvatar& posed, std::vec
       posed.num_gaussians != a.gaussians.size()) {
     fail("render", "posed frame does not belong to this avatar (call repose first)");
   }
-  const int P = cam.width * cam.height;
   if (cam.width <= 0 || cam.height <= 0) fail("render", "camera has no pixels");
-  rgb.resize(size_t(P) * 3);
-
-  MergeInputs mi;
-  mi.num_pixels = P;
-  for (int c = 0; c < 3; ++c) mi.background_color[c] = options.background[c];
-  if (options.draw_mesh) {
-    MeshRenderInput in;
-    in.verts = posed.verts.data();
-    in.num_verts = posed.num_verts;
-    in.faces = a.body.faces.data();
-    in.num_faces = a.body.num_faces;
-    in.uv = a.body.vt.data();
-    in.num_uv = a.body.num_uv();
-    in.uv_faces = a.body.ft.data();
-    in.texture = {a.texture.width, a.texture.height, 3, a.texture.rgb.data()};
-    render_mesh(cam, in, s.mesh);
-    mi.mesh_color = s.mesh.color.data();
-    mi.mesh_mask = s.mesh.raster.mask.data();
-  }
-  if (options.draw_gaussians && posed.num_gaussians > 0) {
-    GaussianInputs<float> gi;
-    gi.count = posed.num_gaussians;
-    gi.means = posed.means.data();
-    gi.quats = posed.quats.data();
-    gi.scales = posed.scales.data();
-    gi.opacities = posed.opacities;
-    gi.colors = posed.colors;
-    GaussianRasterSettings<float> gs;
-    // Occluded where the centre lies behind the mesh surface; no background of its own
-    // (it enters once, in the merge).
-    gs.depth_map = options.draw_mesh ? s.mesh.raster.depth.data() : nullptr;
-    s.color.resize(size_t(P) * 3);
-    s.alpha.resize(size_t(P));
-    GaussianRasterOutputs<float> go;
-    go.color = s.color.data();
-    go.alpha = s.alpha.data();
-    rasterize_gaussians(gi, cam, gs, s.gaussians, go);
-    mi.color_front = s.color.data();
-    mi.alpha = s.alpha.data();
-  }
-  merge(mi, rgb.data());
+  const AvatarViews views(a);
+  AvatarRenderRequest req = avatar_request(a, views, cam, posed.verts.data(), options.draw_mesh,
+                                           options.draw_gaussians && a.gaussians.size() > 0);
+  for (int c = 0; c < 3; ++c) req.background[c] = options.background[c];
+  render_avatar(req, s.buffers);
+  rgb.assign(s.buffers.image.begin(), s.buffers.image.end());
 }
 
 }  // namespace haha

@@ -19,8 +19,7 @@
 #include "body/avatar.h"
 #include "body/smplx_params.h"
 #include "render/camera.h"
-#include "render/gaussian_raster.h"
-#include "render/render_mesh.h"
+#include "render/avatar_render.h"
 
 namespace haha {
 
@@ -42,12 +41,10 @@ struct AvatarRenderOptions {
   bool draw_gaussians = true;
 };
 
-// Scratch buffers of render(), reusable across frames so steady-state rendering does not
-// allocate. One per thread.
+// Scratch buffers of render() (the merged render's, render/avatar_render.h), reusable
+// across frames so steady-state rendering does not allocate. One per thread.
 struct AvatarRenderScratch {
-  MeshRender mesh;
-  GaussianRasterState<float> gaussians;
-  std::vector<float> color, alpha;  // (H, W, 3), (H, W): the Gaussian layer in front of the mesh
+  AvatarRenderBuffers buffers;
 };
 
 class AvatarRuntime {
@@ -83,7 +80,8 @@ class AvatarRuntime {
   void repose(const SmplxParams& params, PosedAvatar& out) const;
 
   // Renders a posed frame into rgb (H, W, 3), H x W = camera size (OpenCV camera,
-  // render/camera.h): I = C_front + (1 - A) (m M + (1 - m) B).
+  // render/camera.h) with the trainer's merged render (render/avatar_render.h):
+  // I = C_front + (1 - A) (m M + (1 - m) B), Gaussians behind D + depth_margin hidden.
   void render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
               const AvatarRenderOptions& options = {}) const;
   void render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb, const AvatarRenderOptions& options,

@@ -1,17 +1,10 @@
 #include "format/avatar_npz.h"
 
-#include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
-
 #include "core/error.h"
 #include "format/avatar_validate.h"
-#include "io/body_model_io.h"
 #include "io/npy.h"
 
 namespace haha {
-
-namespace fs = std::filesystem;
 
 void save_avatar_npz(const Avatar& a, const std::string& path) {
   validate_subject(a, path);
@@ -23,6 +16,7 @@ void save_avatar_npz(const Avatar& a, const std::string& path) {
   z.set("betas", NpyArray::from(a.betas, {int64_t(a.betas.size())}));
   z.set("expression", NpyArray::from(a.expression, {int64_t(a.expression.size())}));
   z.set("face_scale_divisor", NpyArray::from(std::vector<float>{a.face_scale_divisor}, {1}));
+  z.set("depth_margin", NpyArray::from(std::vector<float>{a.depth_margin}, {1}));
   z.set("texture", NpyArray::from(a.texture.rgb, {a.texture.height, a.texture.width, 3}));
   z.set("gaussian_face", NpyArray::from(g.face, {n}));
   z.set("gaussian_offset", NpyArray::from(g.offset, {n, 3}));
@@ -44,6 +38,7 @@ Avatar load_avatar_npz(const std::string& path) {
   a.betas = z.get("betas", {-1}).as_float();
   a.expression = z.get("expression", {-1}).as_float();
   a.face_scale_divisor = z.get("face_scale_divisor", {1}).as_float()[0];
+  if (z.has("depth_margin")) a.depth_margin = z.get("depth_margin", {1}).as_float()[0];  // absent: exact test
   const NpyArray& tex = z.get("texture", {-1, -1, 3});
   a.texture.height = int(tex.shape[0]);
   a.texture.width = int(tex.shape[1]);
@@ -59,33 +54,6 @@ Avatar load_avatar_npz(const std::string& path) {
   g.opacity = z.get("gaussian_opacity", {n}).as_float();
   validate_subject(a, path);
   validate_gaussians(g, -1, path);
-  return a;
-}
-
-std::string run_model_path(const std::string& run_dir) {
-  const std::string cfg = (fs::path(run_dir) / "config.json").string();
-  std::ifstream f(cfg);
-  if (!f) fail(cfg, "cannot open (a run directory needs config.json naming the body model)");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(f);
-  } catch (const nlohmann::json::exception& e) {
-    fail(cfg, std::string("invalid JSON: ") + e.what());
-  }
-  if (!j.is_object() || !j.contains("model") || !j["model"].is_string()) fail(cfg, "model: missing or not a string");
-  const fs::path model = j["model"].get<std::string>();
-  if (model.is_absolute()) return model.string();
-  const fs::path in_run = fs::path(run_dir) / model;
-  if (fs::exists(in_run)) return in_run.string();
-  return model.string();
-}
-
-Avatar load_run_avatar(const std::string& run_dir, const std::string& model_path) {
-  if (!fs::is_directory(run_dir)) fail(run_dir, "not a directory (expected a trained run directory)");
-  Avatar a = load_avatar_npz((fs::path(run_dir) / "avatar.npz").string());
-  const std::string model = model_path.empty() ? run_model_path(run_dir) : model_path;
-  a.body = load_body_model(model);
-  validate_gaussians(a.gaussians, a.body.num_faces, (fs::path(run_dir) / "avatar.npz").string());
   return a;
 }
 

@@ -1,16 +1,13 @@
-// The trained avatar inside a run directory, as the trainer writes it and `haha pack`
-// reads it:
-//
-//   RUN/avatar.npz    the trained parameters (below)
-//   RUN/config.json   {"model": "path/to/SMPLX_NEUTRAL.npz", ...}: the body model the
-//                     avatar was trained on (relative paths: against RUN first, then the
-//                     current directory)
+// The trained avatar as an .npz (RUN/avatar.npz, written by the trainer's driver and read
+// by `haha pack`; the run directory's layout is app/run_dir.h). The body model is not in
+// it: the run's config.json names it.
 //
 // avatar.npz keys (float32 unless noted; N Gaussians, values ACTIVATED, not logits):
 //   format_version      int32 (1)            = 1
 //   betas               (B)                  subject shape
 //   expression          (E)                  subject expression (may be empty: shape (0))
 //   face_scale_divisor  (1)                  k divisor of the face frames (release: 0.05)
+//   depth_margin        (1)                  metres of the merge's depth test (optional; 0)
 //   texture             (H, W, 3)            RGB in [0, 1], row 0 = top (v = 1)
 //   gaussian_face       int32 (N)            parent face index
 //   gaussian_offset     (N, 3)               local mean mu
@@ -35,12 +32,5 @@ void save_avatar_npz(const Avatar& avatar, const std::string& path);
 // Reads avatar.npz; the returned body is empty. Shapes, finiteness and value ranges are
 // checked ("path: key: problem"); face indices are checked once a body is attached.
 Avatar load_avatar_npz(const std::string& path);
-
-// RUN/avatar.npz + the body model named by RUN/config.json "model" (or `model_path` when
-// non-empty). Checks the Gaussians' face indices against the model.
-Avatar load_run_avatar(const std::string& run_dir, const std::string& model_path = "");
-
-// The body model path a run directory names (resolved as described above).
-std::string run_model_path(const std::string& run_dir);
 
 }  // namespace haha

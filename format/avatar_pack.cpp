@@ -449,6 +449,7 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   ext["subject"] = {{"betas", float_array(a.betas.data(), a.betas.size())},
                     {"expression", float_array(a.expression.data(), a.expression.size())}};
   ext["faceFrame"] = {{"scaleDivisor", double(a.face_scale_divisor)}};
+  if (a.depth_margin != 0.0f) ext["depthTest"] = {{"margin", double(a.depth_margin)}};  // absent: exact
   ext["gaussians"] = {{"count", N},
                       {"bufferView", g_view},
                       {"crc32", bin.view_crc(g_view)},

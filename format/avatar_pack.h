@@ -17,8 +17,8 @@ inline constexpr const char* kAvatarExtension = "HAHA_gaussian_avatar";
 inline constexpr int kAvatarFormatVersion = 1;
 
 // Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).
-// Defaults: one-at-a-time sensitivity on a realistic-size avatar (tests/slow/
-// format_storage_test.cpp) keeps each attribute's own cost above ~58 dB and the default
+// Defaults: one-at-a-time sensitivity on a realistic-size avatar
+// (tests/format/storage_slow_test.cpp) keeps each attribute's own cost above ~58 dB and the default
 // pack above 45 dB PSNR against the original's renders.
 struct GaussianBits {
   int offset = 12;    // local offset, uniform over its bounding box

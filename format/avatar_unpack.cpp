@@ -293,6 +293,9 @@ UnpackedAvatar unpack_impl(const uint8_t* data, size_t size, const std::string& 
   a.expression = glb::as_float_array(member(subj, "expression", where, E + ".subject"), where, E + ".subject.expression", 400);
   a.face_scale_divisor = float(as_number(member(member(*ext, "faceFrame", where, E), "scaleDivisor", where, E + ".faceFrame"),
                                          where, E + ".faceFrame.scaleDivisor"));
+  if (ext->contains("depthTest"))
+    a.depth_margin = float(as_number(member(member(*ext, "depthTest", where, E), "margin", where, E + ".depthTest"),
+                                     where, E + ".depthTest.margin"));
 
   // ---- Gaussians ----
   const Json& jg = member(*ext, "gaussians", where, E);

@@ -39,9 +39,9 @@ step() {  # step NAME: prints a banner with the elapsed time
   printf '\n==> [%3d s] %s\n' $((now - t0)) "$2"
 }
 
-step build "install dependencies and build (scripts/build.sh)"
+step build "install dependencies and build the haha command (scripts/build.sh --target haha)"
 if [ "$build" = 1 ]; then
-  bash scripts/build.sh
+  bash scripts/build.sh --target haha  # the tests and benchmarks are built by scripts/test.sh
 fi
 [ -x "$haha" ] || { echo "demo.sh: $haha is not built (run without --no-build)" >&2; exit 1; }
 

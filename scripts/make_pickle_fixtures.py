@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Writes the small pickle fixtures under tests/data/pickle/ that tests/fast/io_pickle_test.cpp
-and tests/fast/data_readers_test.cpp read. Run once by a developer (needs Python 3 and
+"""Writes the small pickle fixtures under tests/fixtures/pickle/ that tests/io/pickle_test.cpp
+and tests/data/readers_test.cpp read. Run once by a developer (needs Python 3 and
 numpy, e.g. Debian's python3-numpy):
 
     /usr/bin/python3 scripts/make_pickle_fixtures.py

@@ -38,6 +38,9 @@ struct Avatar {
   Texture texture;
   BoundGaussians gaussians;
   float face_scale_divisor = 1.0f;  // k is divided by this (release: 0.05) so k ~ 1
+  // Depth test of the merge: a Gaussian shows in front of the mesh where its centre's
+  // camera z <= D + depth_margin (metres; the trainer's s3.depth_margin, 0 = exact).
+  float depth_margin = 0.0f;
 };
 
 }  // namespace haha

@@ -11,6 +11,10 @@ namespace haha {
 // and rethrows.
 void write_atomically(const std::string& path, const std::function<void(const std::string& tmp_path)>& write);
 
+// A whole text file written atomically / read; haha::Error naming the file on failure.
+void write_text_file(const std::string& path, const std::string& text);
+std::string read_text_file(const std::string& path);
+
 // Creates the directory (and parents); throws haha::Error naming it on failure.
 void ensure_directory(const std::string& dir);
 

@@ -6,36 +6,15 @@
 
 #include "body/lbs.h"
 #include "core/error.h"
+#include "render/avatar_render.h"
 #include "train/adam.h"
-#include "train/avatar_render.h"
 #include "train/image_loss.h"
 #include "train/losses.h"
+#include "train/pose_groups.h"
 
 namespace haha {
 
 namespace {
-
-constexpr int kPoseBody = 66, kEyesFirst = 69, kEyesEnd = 75;
-constexpr int kBodyGroup = kPoseBody + 3;
-constexpr int kFineGroup = kNumPoseValues - kPoseBody - (kEyesEnd - kEyesFirst);
-
-void pack(const SmplxParams& p, std::vector<float>& body, std::vector<float>& fine) {
-  body.resize(kBodyGroup);
-  fine.resize(kFineGroup);
-  for (int q = 0; q < kPoseBody; ++q) body[size_t(q)] = p.pose[size_t(q)];
-  for (int q = 0; q < 3; ++q) body[size_t(kPoseBody + q)] = p.transl[size_t(q)];
-  int o = 0;
-  for (int q = kPoseBody; q < kNumPoseValues; ++q)
-    if (q < kEyesFirst || q >= kEyesEnd) fine[size_t(o++)] = p.pose[size_t(q)];
-}
-
-void unpack(const std::vector<float>& body, const std::vector<float>& fine, SmplxParams& p) {
-  for (int q = 0; q < kPoseBody; ++q) p.pose[size_t(q)] = body[size_t(q)];
-  for (int q = 0; q < 3; ++q) p.transl[size_t(q)] = body[size_t(kPoseBody + q)];
-  int o = 0;
-  for (int q = kPoseBody; q < kNumPoseValues; ++q)
-    if (q < kEyesFirst || q >= kEyesEnd) p.pose[size_t(q)] = fine[size_t(o++)];
-}
 
 bool finite_all(const std::vector<float>& v) {
   for (float x : v)
@@ -69,16 +48,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
 
   Lbs<float> lbs(body);
   LbsCache<float> cache;
-  const BoundGaussians& bg = a.gaussians;
-  GaussianSetView gv;
-  gv.count = bg.size();
-  gv.face = bg.face.data();
-  gv.offset = bg.offset.data();
-  gv.rotation = bg.rotation.data();
-  gv.scale = bg.scale.data();
-  gv.color = bg.color.data();
-  gv.opacity = bg.opacity.data();
-  const TextureView tex{a.texture.width, a.texture.height, 3, a.texture.rgb.data()};
+  const AvatarViews views(a);
   AvatarRenderBuffers buf;
   LossScratch<float> scratch;
   std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, gt, d_image, sil, d_sil, d_alpha;
@@ -94,22 +64,16 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     if (!a.expression.empty()) p.expression = a.expression;
     if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
 
-    AvatarRenderRequest req;
-    req.camera = &f.camera;
-    req.body = &body;
-    req.verts = verts.data();
-    req.face_scale_divisor = a.face_scale_divisor;
-    req.gaussians = v.gaussians ? &gv : nullptr;
-    req.texture = v.mesh ? &tex : nullptr;
+    AvatarRenderRequest req = avatar_request(a, views, f.camera, verts.data(), v.mesh, v.gaussians);
     for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
 
     FrameEval fe;
     // Test-time pose optimisation: the avatar is frozen, the frame's pose and transl move.
     if (opt.tto_steps > 0) {
       Adam adam;
-      const int gb = adam.add_group("body", kBodyGroup, opt.lr_pose);
-      const int gf = adam.add_group("fine", kFineGroup, opt.lr_pose_fine);
-      std::vector<float> pb, pf, db(kBodyGroup), dfn(kFineGroup);
+      const int gb = adam.add_group("body", kPoseBodyGroup, opt.lr_pose);
+      const int gf = adam.add_group("fine", kPoseFineGroup, opt.lr_pose_fine);
+      std::vector<float> pb(kPoseBodyGroup), pf(kPoseFineGroup), db(kPoseBodyGroup), dfn(kPoseFineGroup);
       SmplxParams best = p;
       double best_loss = INFINITY;
       for (int s = 0; s <= opt.tto_steps; ++s) {
@@ -138,15 +102,12 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
         render_avatar_backward(req, buf, d_image.data(), da, nullptr, gr);
         SmplxGrad<float> sg = lbs.make_grad(p);
         lbs.backward(p, cache, d_verts.data(), nullptr, sg);
-        SmplxParams gp;
-        gp.pose = sg.pose;
-        gp.transl = sg.transl;
-        pack(gp, db, dfn);
+        pose_to_groups(sg, db.data(), dfn.data());
         if (!finite_all(db) || !finite_all(dfn)) break;  // keep the last finite pose
-        pack(p, pb, pf);
+        pose_to_groups(p, pb.data(), pf.data());
         adam.step(gb, pb.data(), db.data());
         adam.step(gf, pf.data(), dfn.data());
-        unpack(pb, pf, p);
+        groups_to_pose(pb.data(), pf.data(), p);
       }
       fe.tto_loss_end = best_loss;
       p = best;

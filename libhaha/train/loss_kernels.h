@@ -1,6 +1,6 @@
 // Per-pixel / per-row / per-set kernels of the image losses and the KNN regulariser
 // (train/losses.h), as HAHA_HD functions shared by the CPU launchers (losses.cpp) and the
-// CUDA launchers (cuda/image_cuda.cu, cuda/optim_cuda.cu). Value sums are returned per item
+// CUDA launchers (train/losses_cuda.cu, train/optim_cuda.cu). Value sums are returned per item
 // in double; the launchers add them (in a fixed order on the CPU, by atomics on the GPU).
 #pragma once
 

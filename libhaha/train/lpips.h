@@ -7,7 +7,7 @@
 // `--lpips-weights FILE`). Without them LPIPS is OFF and reported as unavailable
 // (kLpipsUnavailable), never approximated.
 //
-// ---- Weight file layout (an .npz; read by io/lpips_weights.h) ---------------------------
+// ---- Weight file layout (an .npz; read by app/lpips_weights.h) --------------------------
 // One or both backbones, float32 (float64 is converted), torch's layouts:
 //   alex.features.{0,3,6,8,10}.weight   (O, I, kh, kw)  conv weights, OIHW
 //   alex.features.{0,3,6,8,10}.bias     (O)
@@ -58,7 +58,7 @@ struct LpipsTensor {
   std::vector<float> data;  // C order, product(shape) values
 };
 
-// The weight file's arrays by name; what io/lpips_weights.h returns.
+// The weight file's arrays by name; what app/lpips_weights.h returns.
 struct LpipsWeights {
   std::string source;  // the file, named in errors
   std::map<std::string, LpipsTensor> tensors;

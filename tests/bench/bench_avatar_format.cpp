@@ -12,7 +12,7 @@
 #include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
-#include "../slow/format_realistic_avatar.h"
+#include "support/format_realistic_avatar.h"
 
 using namespace haha;
 

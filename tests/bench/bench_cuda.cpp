@@ -19,12 +19,13 @@
 #include "cuda/avatar_render_cuda.h"
 #include "cuda/face_frames_cuda.h"
 #include "cuda/gaussian_raster_cuda.h"
-#include "cuda/image_cuda.h"
+#include "cuda/merge_cuda.h"
+#include "train/losses_cuda.h"
 #include "cuda/lbs_cuda.h"
 #include "cuda/mesh_raster_cuda.h"
-#include "cuda/optim_cuda.h"
+#include "train/optim_cuda.h"
 #include "cuda/runtime.h"
-#include "gpu/cuda_scene.h"
+#include "support/cuda_scene.h"
 #include "train/knn.h"
 
 using namespace haha;
@@ -106,10 +107,10 @@ struct GpuScene {
                  opacity.data()};
     tex = {host.tex_w, host.tex_h, 3, texture.data()};
   }
-  cuda::AvatarRenderCudaRequest request(bool with_gaussians = true, bool with_mesh = true) const {
-    cuda::AvatarRenderCudaRequest r;
+  AvatarRenderRequest request(bool with_gaussians = true, bool with_mesh = true) const {
+    AvatarRenderRequest r;
     r.camera = &host.cam;
-    r.body = body.get();
+    r.body = &body->topology;
     r.verts = verts.data();
     r.face_scale_divisor = host.divisor;
     r.gaussians = with_gaussians ? &gaussians : nullptr;

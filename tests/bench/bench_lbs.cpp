@@ -16,7 +16,7 @@
 #include "body/face_frames.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
-#include "fast/body_synthetic_model.h"
+#include "support/body_synthetic_model.h"
 
 namespace haha {
 namespace {
@@ -30,13 +30,13 @@ const BodyModel& model(int which) {
     if (which == 2) {
       m[which] = std::make_unique<BodyModel>(make_procedural_body());
     } else {
-      testing::SynthOptions o;
+      test::SynthOptions o;
       o.total_verts = 10475;
       o.num_shape = 300;
       o.num_expr = 100;
       o.max_influences = 4;
       o.dense_posedirs = which == 1;
-      m[which] = std::make_unique<BodyModel>(testing::make_synthetic_model(o));
+      m[which] = std::make_unique<BodyModel>(test::make_synthetic_model(o));
     }
   }
   return *m[which];

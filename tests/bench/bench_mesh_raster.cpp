@@ -9,7 +9,7 @@
 
 #include "core/parallel.h"
 #include "body/procedural_body.h"
-#include "fast/render_mesh_fixtures.h"
+#include "support/render_mesh_fixtures.h"
 #include "render/render_mesh.h"
 
 using namespace haha;

@@ -16,7 +16,7 @@
 #include "core/error.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
-#include "../fast/format_test_avatar.h"
+#include "support/format_test_avatar.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (bool checksums : {true, false}) {

@@ -1,0 +1,26 @@
+// Where a command runs its kernels: `--device cpu|cuda` on train, eval, render, render-ply
+// and bench. The application layer links the CUDA backend whenever the build has one, so
+// this is the one place that asks whether it exists.
+#pragma once
+
+#include <string>
+
+namespace haha {
+
+enum class Device { cpu, cuda };
+
+inline const char* device_name(Device d) { return d == Device::cuda ? "cuda" : "cpu"; }
+
+// True when this build has the CUDA backend.
+bool cuda_backend_built();
+
+// "cpu" or "cuda" (case-sensitive). `where` names the option in the error ("--device").
+// Throws haha::Error for an unknown name, for "cuda" without a CUDA backend in this build,
+// and for "cuda" on a machine where no CUDA device can be used (no driver, no GPU).
+Device parse_device(const std::string& s, const std::string& where = "--device");
+
+// The GPU in use ("NVIDIA H100 ... (sm_90, ...)"), or why none can be used; empty
+// without a CUDA backend.
+std::string gpu_description();
+
+}  // namespace haha

@@ -1,0 +1,85 @@
+#include "app/eval_run.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "app/lpips_weights.h"
+#include "app/run_dir.h"
+#include "app/train_frames.h"
+#include "core/error.h"
+#include "data/dataset.h"
+#include "train/evaluate.h"
+
+namespace haha {
+
+EvalReport run_eval(const EvalRunOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (o.background != "black" && o.background != "white")
+    fail("--background", "expected black or white, got '" + o.background + "'");
+  const Split split = parse_split(o.split, "--split");
+  const RunDir run(o.run_dir);
+  const RunInfo info = read_trained_run_info(run, "haha eval");
+  const std::string data = o.data_dir.empty() ? info.data_path : o.data_dir;
+  // Avatars: the final (filtered) one and the stage-1 (full Gaussian) one, same body.
+  const Avatar filtered = load_run_avatar(run);
+  const Avatar full = load_stage1_avatar(run, filtered.body);
+  Dataset ds = read_dataset(data, LoadPixels::headers);
+  std::vector<TrainFrame> frames = dataset_frames(ds, split, info.config.resolution);
+  if (frames.empty()) fail(data, "no " + o.split + " frames");
+  if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
+
+  EvalOptions opt;
+  opt.tto_steps = o.tto_steps >= 0 ? o.tto_steps : info.config.eval_tto_steps;
+  opt.lr_pose = info.config.eval_lr_pose;
+  opt.lr_pose_fine = info.config.eval_lr_pose_fine;
+  const float bgv = o.background == "white" ? 1.0f : 0.0f;
+  for (float& c : opt.background) c = bgv;
+  opt.premultiplied = dataset_premultiplied(ds, info.config.premultiplied);
+  opt.keep_images = o.sheet_frames;
+  std::unique_ptr<LpipsNet<float>> alex;
+  LpipsWeights lw;
+  const std::string lp = o.lpips_weights.empty() ? info.lpips_weights_path : o.lpips_weights;
+  if (!lp.empty()) {
+    lw = read_lpips_weights(lp);
+    if (lw.has_backbone(LpipsBackbone::Alex)) {
+      alex = std::make_unique<LpipsNet<float>>(lw, LpipsBackbone::Alex);
+      if (std::min(frames[0].camera.width, frames[0].camera.height) < alex->min_size()) alex.reset();
+    }
+  }
+  opt.lpips = alex.get();
+
+  EvalReport r;
+  r.run_dir = o.run_dir;
+  r.data_dir = data;
+  r.split = o.split;
+  r.background = o.background;
+  r.preset = info.config.preset;
+  r.tto_steps = opt.tto_steps;
+  r.lpips_available = alex != nullptr;
+  const TrainConfig defaults = make_preset(info.config.preset);
+  for (const auto& [k, v] : config_to_pairs(info.config))
+    for (const auto& [k0, v0] : config_to_pairs(defaults))
+      if (k == k0 && v != v0) r.switches.push_back(k + "=" + v);
+  r.stage_seconds = read_train_seconds(run);
+  for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
+  const EvalVariant variants[] = {{"mesh only", &filtered, true, false},
+                                  {"full Gaussians", &full, false, true},
+                                  {"naive merge", &full, true, true},
+                                  {"HAHA filtered", &filtered, true, true}};
+  for (const EvalVariant& v : variants) {
+    r.variants.push_back(evaluate_variant(v, frames, opt));
+    if (o.print_table)
+      std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)\n", v.name.c_str(), r.variants.back().psnr,
+                  r.variants.back().ssim, r.variants.back().num_gaussians);
+  }
+  r.regions_full = gaussians_per_region(full.body, full.gaussians);
+  r.regions_filtered = gaussians_per_region(filtered.body, filtered.gaussians);
+  r.eval_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  write_eval_report(r);
+  write_eval_contact_sheet(run.eval_sheet(), r, frames[0].camera.width, frames[0].camera.height);
+  return r;
+}
+
+}  // namespace haha

@@ -1,0 +1,28 @@
+// `haha eval`: the paper's stage table for a trained run (train/evaluate.h): mesh only /
+// full Gaussians / naive merge / HAHA filtered on held-out frames, written to
+// RUN/report.json, RUN/report.md and RUN/eval_sheet.png (app/eval_report.h).
+#pragma once
+
+#include <string>
+
+#include "app/eval_report.h"
+
+namespace haha {
+
+struct EvalRunOptions {
+  std::string run_dir;
+  std::string data_dir;              // empty: the run's dataset
+  std::string split = "test";        // train | test
+  std::string background = "black";  // black | white
+  int tto_steps = -1;                // test-time pose optimisation steps; < 0: the run's
+  int frames = 0;                    // > 0: only the first N frames of the split
+  int sheet_frames = 4;              // frames on the contact sheet
+  std::string lpips_weights;         // empty: the run's (AlexNet part used)
+  bool print_table = true;           // one line per variant on stdout while it runs
+};
+
+// Evaluates the four variants, writes the report files and returns the report.
+// Throws haha::Error naming the file or option for bad input.
+EvalReport run_eval(const EvalRunOptions& opt);
+
+}  // namespace haha

@@ -1,0 +1,22 @@
+// Dataset frames turned into the trainer's frames (train/trainer.h TrainFrame), shared by
+// the train, eval and bench drivers.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "data/dataset.h"
+#include "train/trainer.h"
+
+namespace haha {
+
+// Whether the dataset's images are already composited on black with soft masks: "true" /
+// "false", or "auto" = datasets written by `haha synth` (their source says so).
+bool dataset_premultiplied(const Dataset& ds, const std::string& setting);
+
+// The frames of one split as training frames, resized so the longer side is `resolution`
+// (0 = as stored; cameras scaled with the images). Loads pixels that are not loaded yet.
+// Throws haha::Error naming the file for unreadable images.
+std::vector<TrainFrame> dataset_frames(Dataset& ds, Split split, int resolution);
+
+}  // namespace haha

@@ -1,0 +1,213 @@
+#include "app/train_run.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "app/lpips_weights.h"
+#include "app/run_dir.h"
+#include "app/train_frames.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "data/dataset.h"
+#include "format/avatar_npz.h"
+#include "io/body_model_io.h"
+#include "io/smplx_params_io.h"
+
+namespace haha {
+
+namespace fs = std::filesystem;
+using ojson = nlohmann::ordered_json;
+
+namespace {
+
+std::string fmt_duration(double s) {
+  char buf[32];
+  if (!std::isfinite(s) || s < 0) return "?";
+  const int t = int(std::lround(s));
+  if (t >= 3600)
+    std::snprintf(buf, sizeof buf, "%dh%02dm", t / 3600, (t / 60) % 60);
+  else if (t >= 60)
+    std::snprintf(buf, sizeof buf, "%dm%02ds", t / 60, t % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%ds", t);
+  return buf;
+}
+
+}  // namespace
+
+// ---- the driver -------------------------------------------------------------------------
+
+namespace {
+
+std::string progress_line(const StepReport& r, const Trainer& t, double rate, double eta) {
+  char buf[512];
+  const LossTerms& l = r.loss;
+  std::string parts;
+  auto add = [&](const char* name, double v) {
+    if (v == 0) return;
+    char b[48];
+    std::snprintf(b, sizeof b, " %s %.4g", name, v);
+    parts += b;
+  };
+  add("l2", l.l2);
+  add("ssim", l.ssim);
+  add("sobel", l.sobel);
+  add("lpips", l.lpips);
+  add("knn", l.knn);
+  add("dice", l.dice);
+  add("tv", l.tv);
+  add("opac", l.opacity);
+  std::snprintf(buf, sizeof buf, "[stage %d] %d/%d loss %.5f (%s) G %d | %.2f it/s | ETA %s%s", r.stage, r.step,
+                r.steps, l.total, parts.empty() ? "" : parts.c_str() + 1, r.gaussians, rate, fmt_duration(eta).c_str(),
+                r.skipped ? " | SKIPPED (non-finite)" : "");
+  (void)t;
+  return buf;
+}
+
+}  // namespace
+
+TrainRunResult run_training(const TrainRunOptions& opt) {
+  auto log = [&](const std::string& s) {
+    if (opt.log)
+      opt.log(s);
+    else {
+      std::printf("%s\n", s.c_str());
+      std::fflush(stdout);
+    }
+  };
+  if (opt.run_dir.empty()) fail("--out", "no run directory given");
+  const RunDir run(opt.run_dir);
+  const std::string config_path = run.config();
+  const std::string ck_path = run.checkpoint();
+
+  RunInfo info;
+  if (opt.resume) {
+    if (!fs::exists(config_path)) fail(config_path, "--resume: no run to resume here (config.json missing)");
+    if (!opt.overrides.empty())
+      fail("--resume", "the run's saved config is used; key=value overrides are not allowed when resuming");
+    info = read_trained_run_info(run, "--resume");
+    if (!opt.data_dir.empty() && fs::weakly_canonical(opt.data_dir) != fs::weakly_canonical(info.data_path))
+      fail("--data", "differs from the run's dataset " + info.data_path);
+  } else {
+    if (opt.data_dir.empty()) fail("--data", "no dataset directory given");
+    if (!fs::is_directory(opt.data_dir)) fail(opt.data_dir, "dataset directory not found");
+    info.config = make_preset(opt.preset);
+    apply_overrides(info.config, opt.overrides, "override");
+    validate_config(info.config);
+    info.data_path = fs::absolute(opt.data_dir).lexically_normal().string();
+    std::string model = opt.model_path;
+    if (model.empty()) {
+      model = (fs::path(opt.data_dir) / "body_model.npz").string();
+      if (!fs::exists(model)) fail("--model", "no body model given and " + model + " does not exist");
+    }
+    info.model_path = fs::absolute(model).lexically_normal().string();
+    if (!opt.lpips_weights.empty()) info.lpips_weights_path = fs::absolute(opt.lpips_weights).lexically_normal().string();
+  }
+  const TrainConfig& cfg = info.config;
+
+  // Everything is read and validated before the first step.
+  const BodyModel body = load_body_model(info.model_path);
+  Dataset ds = read_dataset(info.data_path, LoadPixels::all);
+  LpipsWeights lw;
+  if (!info.lpips_weights_path.empty()) lw = read_lpips_weights(info.lpips_weights_path);
+  TrainInput input;
+  input.body = &body;
+  input.premultiplied = dataset_premultiplied(ds, cfg.premultiplied);
+  input.frames = dataset_frames(ds, Split::train, cfg.resolution);
+  if (input.frames.empty()) fail(info.data_path, "the dataset has no training frames");
+  input.lpips = info.lpips_weights_path.empty() ? nullptr : &lw;
+  for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
+  const int num_frames = int(input.frames.size());
+  const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
+  Trainer trainer(cfg, std::move(input));
+
+  if (opt.resume) {
+    if (!fs::exists(ck_path)) fail(ck_path, "--resume: no checkpoint to resume from");
+    trainer.load(read_checkpoint(ck_path), ck_path);
+    log("resumed " + opt.run_dir + " at stage " + std::to_string(trainer.stage()) + " step " +
+        std::to_string(trainer.step_in_stage()));
+  } else {
+    ensure_directory(opt.run_dir);
+    if (fs::exists(ck_path))
+      fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
+    write_run_info(run, info);
+    const char* lp = trainer.lpips_active()           ? ", LPIPS-VGG loss on"
+                     : info.lpips_weights_path.empty() ? ", LPIPS off (no --lpips-weights)"
+                                                       : ", LPIPS off (no VGG part in the weights, or images too small)";
+    log("training " + std::to_string(num_frames) + " frames at " + std::to_string(W) + "x" + std::to_string(H) +
+        ", preset " + cfg.preset + ", " + std::to_string(trainer.num_gaussians()) + " Gaussians at start" + lp);
+  }
+
+  TrainRunResult res;
+  auto t_stage = std::chrono::steady_clock::now();
+  int stage_started_step = trainer.step_in_stage();
+  int cur_stage = trainer.stage();
+  while (!trainer.done()) {
+    if (opt.stop_after >= 0 && res.steps_run >= opt.stop_after) break;
+    const StepReport r = trainer.step();
+    ++res.steps_run;
+    const bool stage_end = trainer.stage() != r.stage;
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stage).count();
+    const int done_in_stage = r.step - stage_started_step;
+    const double rate = el > 0 ? done_in_stage / el : 0.0;
+    // ETA: this stage at its measured rate, later stages at that rate scaled by their
+    // typical relative step cost (stage 2 touches only the texture, stage 3 has no LBS or
+    // position gradients); a rough guide, refined as each stage starts.
+    const double cost[3] = {1.0, 0.15, 0.4};
+    double eta = rate > 0 ? double(r.steps - r.step) / rate : NAN;
+    for (int s = r.stage + 1; s <= 3 && rate > 0; ++s)
+      eta += double(s == 2 ? cfg.s2.steps : cfg.s3.steps) * cost[s - 1] / cost[r.stage - 1] / rate;
+    if (r.step % cfg.log_every == 0 || stage_end || !r.event.empty() || r.skipped) {
+      log(progress_line(r, trainer, rate, eta));
+      if (!r.event.empty()) log("  " + r.event);
+    }
+    if (stage_end) {
+      write_checkpoint(run.stage_checkpoint(r.stage), trainer.save());
+      write_checkpoint(ck_path, trainer.save());
+      t_stage = std::chrono::steady_clock::now();
+      stage_started_step = 0;
+      cur_stage = trainer.stage();
+    } else if (cfg.checkpoint_every > 0 && r.step % cfg.checkpoint_every == 0) {
+      write_checkpoint(ck_path, trainer.save());
+    }
+  }
+  (void)cur_stage;
+  res.finished = trainer.done();
+  res.gaussians = trainer.num_gaussians();
+  res.stage_seconds = trainer.stage_seconds();
+  if (!res.finished) {
+    write_checkpoint(ck_path, trainer.save());
+    log("stopped at stage " + std::to_string(trainer.stage()) + " step " + std::to_string(trainer.step_in_stage()) +
+        " (checkpoint written; continue with --resume)");
+    return res;
+  }
+  // Outputs.
+  const Avatar s1 = trainer.stage1_avatar();
+  res.gaussians_stage1 = s1.gaussians.size();
+  save_avatar_npz(trainer.avatar(), run.avatar());
+  save_avatar_npz(s1, run.stage1_avatar());
+  write_smplx_params(run.refined_fits(), trainer.refined_params());
+  ojson s;
+  s["stage_seconds"] = {res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]};
+  s["train_seconds"] = res.stage_seconds[0] + res.stage_seconds[1] + res.stage_seconds[2];
+  s["gaussians_stage1"] = res.gaussians_stage1;
+  s["gaussians_final"] = res.gaussians;
+  s["skipped_steps"] = trainer.skipped_steps();
+  s["steps"] = {cfg.s1.steps, cfg.s2.steps, cfg.s3.steps};
+  s["frames"] = num_frames;
+  s["resolution"] = {W, H};
+  s["lpips"] = trainer.lpips_active();
+  s["threads"] = num_threads();
+  write_text_file(run.train_summary(), s.dump(2) + "\n");
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "done: %d Gaussians after stage 1, %d after filtering; stages %.1f s / %.1f s / %.1f s",
+                res.gaussians_stage1, res.gaussians, res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]);
+  log(buf);
+  return res;
+}
+
+}  // namespace haha

@@ -1,0 +1,191 @@
+#include "train/losses_cuda.h"
+
+#include "cuda/device_util.cuh"
+#include "train/loss_kernels.h"
+
+namespace haha::cuda {
+
+namespace {
+
+using detail::block_sum_atomic;
+using detail::global_index;
+
+// The SSIM window in float (the CPU path's T(g[k])), in constant memory: every thread of a
+// blur reads the same tap at the same time.
+__constant__ float c_taps[kSsimWindow];
+
+void upload_taps() {
+  float t[kSsimWindow];
+  for (int k = 0; k < kSsimWindow; ++k) t[k] = float(loss::ssim_window().g[k]);
+  HAHA_CUDA_CHECK(cudaMemcpyToSymbol(c_taps, t, sizeof t));
+}
+
+__global__ void weight_sum_kernel(const float* w, int64_t P, double* sum) {
+  const int64_t p = global_index();
+  block_sum_atomic(p < P ? double(w[p]) : 0.0, sum);
+}
+
+__global__ void l2_value_kernel(const float* x, const float* y, const float* w, int64_t P, double* sum) {
+  const int64_t p = global_index();
+  double s = 0.0;
+  if (p < P) {
+    const double wp = w ? double(w[p]) : 1.0;
+    if (wp != 0.0) s = wp * loss::l2_pixel(x, y, p);
+  }
+  block_sum_atomic(s, sum);
+}
+
+__global__ void l2_grad_kernel(const float* x, const float* y, const float* w, int64_t P, float k, float* grad) {
+  const int64_t p = global_index();
+  if (p >= P) return;
+  const float wp = w ? w[p] : 1.0f;
+  if (wp == 0.0f) return;
+  loss::l2_grad_pixel(x, y, p, k * wp, grad);
+}
+
+__global__ void ssim_maps_kernel(const float* x, const float* y, int c, int64_t P, float* t) {
+  const int64_t p = global_index();
+  if (p < P) loss::ssim_maps_pixel(x, y, c, P, p, t);
+}
+
+// n planes (H, W): element e = (plane * H + row) * W + x.
+__global__ void blur_rows_kernel(const float* in, float* out, int H, int W, int n) {
+  const int64_t e = global_index();
+  if (e >= int64_t(n) * H * W) return;
+  const int64_t row = e / W;
+  const int x = int(e % W);
+  loss::blur_row_span(in + row * W, W, x, x + 1, c_taps, out + row * W);
+}
+
+__global__ void blur_cols_kernel(const float* in, float* out, int H, int W, int n) {
+  const int64_t e = global_index();
+  const int64_t P = int64_t(H) * W;
+  if (e >= int64_t(n) * P) return;
+  const int64_t m = e / P;
+  const int y = int((e % P) / W), x = int(e % W);
+  loss::blur_col_span(in + m * P, H, W, y, x, x + 1, c_taps, out + m * P + int64_t(y) * W);
+}
+
+void blur(float* maps, float* tmp, int H, int W, int n) {
+  const int64_t count = int64_t(n) * H * W;
+  HAHA_LAUNCH(blur_rows_kernel, count, detail::kThreads, 0, maps, tmp, H, W, n);
+  HAHA_LAUNCH(blur_cols_kernel, count, detail::kThreads, 0, tmp, maps, H, W, n);
+}
+
+__global__ void ssim_value_kernel(const float* t, const float* w, int64_t P, float gS, float* u, double* sum) {
+  const int64_t p = global_index();
+  double s = 0.0;
+  if (p < P) {
+    const float wp = w ? w[p] : 1.0f;
+    const float S = loss::ssim_pixel(t, P, p, gS * wp, u);
+    s = double(wp) * double(S);
+  }
+  block_sum_atomic(s, sum);
+}
+
+__global__ void ssim_grad_kernel(const float* x, const float* y, int c, int64_t P, const float* u, float grad_scale,
+                                 float* grad) {
+  const int64_t p = global_index();
+  if (p < P) loss::ssim_grad_pixel(x, y, c, P, p, u, grad_scale, grad);
+}
+
+__global__ void luma_kernel(const float* x, const float* y, int64_t P, float* lx, float* ly) {
+  const int64_t p = global_index();
+  if (p >= P) return;
+  lx[p] = loss::edge_luma(x, p);
+  ly[p] = loss::edge_luma(y, p);
+}
+
+__global__ void edge_value_kernel(const float* lx, const float* ly, const float* w, int H, int W, float k, float* dgx,
+                                  float* dgy, double* sum) {
+  const int64_t p = global_index();
+  double s = 0.0;
+  if (p < int64_t(H) * W) {
+    const float wp = w ? w[p] : 1.0f;
+    s = loss::edge_pixel(lx, ly, H, W, int(p / W), int(p % W), wp, k, dgx, dgy);
+  }
+  block_sum_atomic(s, sum);
+}
+
+__global__ void edge_grad_kernel(const float* dgx, const float* dgy, int H, int W, float grad_scale, float* grad) {
+  const int64_t p = global_index();
+  if (p >= int64_t(H) * W) return;
+  loss::edge_grad_pixel(p, grad_scale * loss::edge_gather(dgx, dgy, H, W, int(p / W), int(p % W)), grad);
+}
+
+// Weight sum as the CPU computes it (H W without weights); reads back when weighted.
+double weight_sum(const float* weights, int H, int W, LossCudaScratch& s) {
+  if (!weights) return double(H) * double(W);
+  const int64_t P = int64_t(H) * W;
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(weight_sum_kernel, P, detail::kThreads, 0, weights, P, s.sums.data());
+  double v = 0.0;
+  s.sums.download(&v, 1);
+  return v;
+}
+
+double read_sum(LossCudaScratch& s) {
+  double v = 0.0;
+  s.sums.download(&v, 1);
+  return v;
+}
+
+}  // namespace
+
+float l2_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScratch& s, const float* weights,
+                   float* grad, float grad_scale) {
+  const double denom = 3.0 * weight_sum(weights, H, W, s);
+  if (!(denom > 0.0)) return 0.0f;
+  const int64_t P = int64_t(H) * W;
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(l2_value_kernel, P, detail::kThreads, 0, x, y, weights, P, s.sums.data());
+  if (grad) {
+    const float k = float(2.0 / denom) * grad_scale;
+    HAHA_LAUNCH(l2_grad_kernel, P, detail::kThreads, 0, x, y, weights, P, k, grad);
+  }
+  return float(read_sum(s) / denom);
+}
+
+float ssim_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScratch& s, const float* weights,
+                     float* grad, float grad_scale) {
+  const double wsum = weight_sum(weights, H, W, s);
+  if (!(wsum > 0.0) || H <= 0 || W <= 0) return 0.0f;
+  const int64_t P = int64_t(H) * W;
+  s.maps.resize(size_t(10 * P));
+  float* t = s.maps.data();  // t[0..5P): maps, t[5P..10P): blur temporary / u
+  float* u = t + 5 * P;
+  upload_taps();
+  const float gS = float(-1.0 / (3.0 * wsum));
+  s.sums.assign_zero(4);
+  for (int c = 0; c < 3; ++c) {
+    HAHA_LAUNCH(ssim_maps_kernel, P, detail::kThreads, 0, x, y, c, P, t);
+    blur(t, u, H, W, 5);
+    HAHA_LAUNCH(ssim_value_kernel, P, detail::kThreads, 0, t, weights, P, gS, grad ? u : nullptr, s.sums.data());
+    if (grad) {
+      blur(u, t, H, W, 3);  // the blur is symmetric with zero padding: its own adjoint
+      HAHA_LAUNCH(ssim_grad_kernel, P, detail::kThreads, 0, x, y, c, P, u, grad_scale, grad);
+    }
+  }
+  return float(1.0 - read_sum(s) / (3.0 * wsum));
+}
+
+float edge_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScratch& s, const float* weights,
+                     float* grad, float grad_scale) {
+  const double wsum = weight_sum(weights, H, W, s);
+  if (!(wsum > 0.0) || H <= 0 || W <= 0) return 0.0f;
+  const int64_t P = int64_t(H) * W;
+  s.maps.resize(size_t(4 * P));
+  float* lx = s.maps.data();
+  float* ly = lx + P;
+  float* dgx = lx + 2 * P;
+  float* dgy = lx + 3 * P;
+  HAHA_LAUNCH(luma_kernel, P, detail::kThreads, 0, x, y, P, lx, ly);
+  const float k = float(1.0 / wsum);
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(edge_value_kernel, P, detail::kThreads, 0, lx, ly, weights, H, W, k, grad ? dgx : nullptr, dgy,
+              s.sums.data());
+  if (grad) HAHA_LAUNCH(edge_grad_kernel, P, detail::kThreads, 0, dgx, dgy, H, W, grad_scale, grad);
+  return float(read_sum(s) / wsum);
+}
+
+}  // namespace haha::cuda

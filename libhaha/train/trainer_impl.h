@@ -1,0 +1,344 @@
+// The trainer's private state and step functions (train/trainer.h is the public face).
+// One file per part: trainer.cpp (set-up, the step loop, the public API),
+// trainer_stage1.cpp (Gaussians, pose refinement, densification), trainer_stage2.cpp
+// (texture), trainer_stage3.cpp (filtering, pruning), trainer_checkpoint.cpp (state in
+// and out). Included by those files only.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "body/lbs.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "render/avatar_render.h"
+#include "render/mesh_raster.h"
+#include "render/texture.h"
+#include "train/adam.h"
+#include "train/gaussian_params.h"
+#include "train/knn.h"
+#include "train/losses.h"
+#include "train/pose_groups.h"
+#include "train/trainer.h"
+
+namespace haha {
+
+namespace trainer_detail {
+
+// RNG streams (the stage is folded in).
+enum Stream : uint64_t { kFrameOrder = 1, kBackground = 2, kSplit = 3 };
+inline uint64_t stream(int stage, Stream s) { return uint64_t(stage) * 16 + uint64_t(s); }
+
+inline bool finite_all(const std::vector<float>& v) {
+  for (float x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+inline std::string frame_label(const TrainFrame& f, size_t i) {
+  return f.name.empty() ? "training frame " + std::to_string(i) : f.name;
+}
+
+}  // namespace trainer_detail
+
+using namespace trainer_detail;  // a private header: only the trainer's files include it
+
+struct Trainer::Impl {
+  TrainConfig cfg;
+  TrainInput in;
+  const BodyModel& body;
+  Lbs<float> lbs;
+  int W = 0, H = 0, P = 0, nf = 0;
+  std::unique_ptr<LpipsNet<float>> lpips;
+
+  // ---- state (what a checkpoint holds) ----
+  int stage = 1, step = 0;
+  GaussianParams g, g_s1;
+  bool have_s1 = false;
+  std::vector<float> betas;
+  std::vector<SmplxParams> params;  // per frame; betas are replaced by `betas` at use
+  std::vector<float> texture;       // (S, S, 3)
+  int tex_size = 0;
+  Adam adam;
+  std::vector<float> grad_accum, grad_count;  // densification statistics
+  std::vector<int32_t> knn_idx;
+  std::array<double, 3> seconds{0, 0, 0};
+  int64_t skipped = 0;
+  int nan_streak = 0;
+
+  // ---- derived / scratch ----
+  std::vector<std::vector<float>> frame_verts;  // stages 2-3: posed bodies (frozen)
+  struct MeshCache {
+    std::vector<int32_t> tri;
+    std::vector<float> uv, mask, depth, color;
+    bool ready = false;
+  };
+  std::vector<MeshCache> mesh_cache;
+  bool cache_all = true;
+  MeshCache scratch_cache;
+  MeshRaster raster;
+  ActivatedGaussians act;
+  AvatarRenderBuffers rbuf;
+  LbsCache<float> lcache;
+  std::vector<float> verts, d_verts, gt, d_image, d_alpha, sil, d_sil, rot_unit, d_rot_unit, d_means_extra;
+  ImageLossContext lctx;
+  std::vector<float> d_offset, d_rotation, d_scale, d_color, d_opacity, d_scale_logit, d_color_logit,
+      d_opacity_logit, d_texture, d_betas, tex_color;
+  std::vector<std::vector<float>> d_frame_body, d_frame_fine;
+  std::vector<uint8_t> frame_touched;
+  std::function<void(int, std::vector<float>&)> hook;
+
+  Impl(const TrainConfig& c, TrainInput input)
+      : cfg(c), in(std::move(input)), body(*in.body), lbs(*in.body) {}
+
+  int stage_steps(int s) const { return s == 1 ? cfg.s1.steps : s == 2 ? cfg.s2.steps : s == 3 ? cfg.s3.steps : 0; }
+  const LossWeights& weights(int s) const { return s == 1 ? cfg.s1.w : s == 2 ? cfg.s2.w : cfg.s3.w; }
+  LossWeights effective(int s) const {
+    LossWeights w = weights(s);
+    if (!cfg.use_sobel) w.sobel = 0;
+    if (!cfg.use_opacity_reg) w.opacity = 0;
+    if (!cfg.use_dice) w.dice = 0;
+    if (!lpips) w.lpips = 0;
+    return w;
+  }
+
+  // Frame of sample k of stage s: epochs are seeded permutations of the frames.
+  int frame_of(int s, int64_t k) const {
+    const int64_t epoch = k / nf, pos = k % nf;
+    std::vector<int> perm(static_cast<size_t>(nf));
+    std::iota(perm.begin(), perm.end(), 0);
+    for (int i = nf - 1; i > 0; --i) {
+      const int j = int(uniform01(cfg.seed, stream(s, kFrameOrder), uint64_t(epoch) * uint64_t(nf) + uint64_t(i)) * (i + 1));
+      std::swap(perm[size_t(i)], perm[size_t(std::min(j, i))]);
+    }
+    return perm[size_t(pos)];
+  }
+  void background(int s, int64_t k, float bg[3]) const {
+    for (int c = 0; c < 3; ++c)
+      bg[c] = cfg.random_background ? float(uniform01(cfg.seed, stream(s, kBackground), uint64_t(k) * 3 + uint64_t(c))) : 0.0f;
+  }
+
+  SmplxParams frame_params(int fi) const {
+    SmplxParams p = params[size_t(fi)];
+    p.betas = betas;
+    return p;
+  }
+
+  void pose_frame(int fi, bool keep_cache) {
+    verts.resize(3 * size_t(body.num_verts));
+    lbs.forward(frame_params(fi), verts.data(), nullptr, keep_cache ? &lcache : nullptr);
+  }
+
+  // ---------------------------------------------------------------------------------
+  void setup(bool fresh) {
+    validate_config(cfg);
+    validate_train_input(in);
+    W = in.frames[0].camera.width;
+    H = in.frames[0].camera.height;
+    P = W * H;
+    nf = int(in.frames.size());
+    if (in.lpips && in.lpips->has_backbone(LpipsBackbone::Vgg16)) {
+      lpips = std::make_unique<LpipsNet<float>>(*in.lpips, LpipsBackbone::Vgg16);
+      if (std::min(W, H) < lpips->min_size()) lpips.reset();
+    }
+    lctx.lpips = lpips.get();
+    // Shared betas: mean of the fits (at most the model's shape columns).
+    size_t nb = 0;
+    for (const TrainFrame& f : in.frames) nb = std::max(nb, f.params.betas.size());
+    if (nb == 0) nb = size_t(std::min(10, body.num_shape));
+    nb = std::min(nb, size_t(body.num_shape));
+    betas.assign(nb, 0.0f);
+    for (const TrainFrame& f : in.frames)
+      for (size_t k = 0; k < std::min(nb, f.params.betas.size()); ++k) betas[k] += f.params.betas[k] / float(nf);
+    params.clear();
+    for (const TrainFrame& f : in.frames) {
+      SmplxParams p = f.params;
+      if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
+      params.push_back(p);
+    }
+    tex_size = cfg.s2.texture_size;
+    d_frame_body.assign(size_t(nf), std::vector<float>(kPoseBodyGroup));
+    d_frame_fine.assign(size_t(nf), std::vector<float>(kPoseFineGroup));
+    frame_touched.assign(size_t(nf), 0);
+    if (fresh) {
+      stage = 1;
+      step = 0;
+      g = init_one_per_face(body.num_faces, float(cfg.s1.init_scale), float(cfg.s1.init_color), float(cfg.s1.opacity),
+                            float(cfg.scale_max));
+      begin_stage(1);
+    }
+  }
+
+  void begin_stage(int s) {
+    adam = Adam();
+    knn_idx.clear();
+    if (s == 1) {
+      const int n = g.size();
+      adam.add_group("offset", 3 * int64_t(n), cfg.s1.lr_offset_init, 3);
+      adam.add_group("rotation", 4 * int64_t(n), cfg.s1.lr_rotation, 4);
+      adam.add_group("scale", 3 * int64_t(n), cfg.s1.lr_scale, 3);
+      adam.add_group("color", 3 * int64_t(n), cfg.s1.lr_color, 3);
+      if (cfg.s1.refine_pose) {
+        adam.add_group("betas", int64_t(betas.size()), cfg.s1.lr_pose, 1);
+        for (int i = 0; i < nf; ++i) {
+          adam.add_group("frame" + std::to_string(i) + ".body", kPoseBodyGroup, cfg.s1.lr_pose, 1);
+          adam.add_group("frame" + std::to_string(i) + ".fine", kPoseFineGroup, cfg.s1.lr_pose_fine, 1);
+        }
+      }
+      grad_accum.assign(size_t(n), 0.0f);
+      grad_count.assign(size_t(n), 0.0f);
+    } else if (s == 2) {
+      if (!have_s1) {
+        g_s1 = g;
+        have_s1 = true;
+      }
+      if (texture.empty()) texture.assign(size_t(tex_size) * tex_size * 3, float(cfg.s2.init_color));
+      adam.add_group("texture", int64_t(texture.size()), cfg.s2.lr_texture, 3);
+      build_frame_verts();
+    } else if (s == 3) {
+      const int n = g.size();
+      adam.add_group("opacity", n, cfg.s3.lr_opacity, 1);
+      adam.add_group("color", 3 * int64_t(n), cfg.s3.lr_color, 3);
+      build_frame_verts();
+    }
+    for (MeshCache& m : mesh_cache) m.ready = false;
+  }
+
+  void build_frame_verts() {
+    frame_verts.assign(size_t(nf), {});
+    for (int i = 0; i < nf; ++i) {
+      frame_verts[size_t(i)].resize(3 * size_t(body.num_verts));
+      lbs.forward(frame_params(i), frame_verts[size_t(i)].data(), nullptr, nullptr);
+    }
+    // Per-frame caches: tri + uv + mask (stage 2) or depth + colour + mask (stage 3).
+    const double per_frame = double(P) * (stage == 2 ? 4 + 8 + 4 : 4 + 12 + 4);
+    cache_all = per_frame * nf <= cfg.max_cache_mb * 1024.0 * 1024.0;
+    mesh_cache.assign(cache_all ? size_t(nf) : 0, MeshCache{});
+  }
+
+  // Mesh data of frame fi for the current stage (cached when memory allows).
+  MeshCache& mesh_of(int fi) {
+    MeshCache& m = cache_all ? mesh_cache[size_t(fi)] : scratch_cache;
+    if (cache_all && m.ready) return m;
+    const Camera& cam = in.frames[size_t(fi)].camera;
+    rasterize_mesh(cam, MeshView{frame_verts[size_t(fi)].data(), body.num_verts, body.faces.data(), body.num_faces},
+                   raster);
+    m.tri = raster.tri;
+    m.mask = raster.mask;
+    m.uv.resize(2 * size_t(P));
+    interpolate(P, raster.tri.data(), raster.bary.data(), body.ft.data(), body.vt.data(), 2, m.uv.data());
+    if (stage == 3) {
+      m.depth = raster.depth;
+      m.color.resize(3 * size_t(P));
+      sample_texture(texture_view(), P, m.tri.data(), m.uv.data(), m.color.data());
+      m.tri.clear();
+      m.uv.clear();
+    }
+    m.ready = true;
+    return m;
+  }
+
+  TextureView texture_view() const { return TextureView{tex_size, tex_size, 3, texture.data()}; }
+
+  GaussianSetView gaussian_view() const {
+    GaussianSetView v;
+    v.count = g.size();
+    v.face = g.face.data();
+    v.offset = g.offset.data();
+    v.rotation = g.rotation.data();
+    v.scale = act.scale.data();
+    v.color = act.color.data();
+    v.opacity = act.opacity.data();
+    return v;
+  }
+
+  void prepare_ground_truth(int fi, const float bg[3]) {
+    gt.resize(3 * size_t(P));
+    const TrainFrame& f = in.frames[size_t(fi)];
+    composite_ground_truth(f.rgb.data(), f.mask.data(), P, in.premultiplied, bg, gt.data());
+  }
+
+  // KNN sets over the posed centres `means`.
+  void update_knn(const float* means) {
+    const int n = g.size(), K = cfg.s1.knn_k;
+    knn_idx.resize(size_t(n) * K);
+    if (n > 0) haha::knn_sets(means, n, K, knn_idx.data());
+  }
+
+  // ---------------------------------------------------------------------------------
+  // Stage 1.
+  bool step1(LossTerms& terms, std::string& event);
+
+  void densify(std::string& event);
+
+  // ---------------------------------------------------------------------------------
+  // Stage 2.
+  bool step2(LossTerms& terms, std::string&);
+
+  // ---------------------------------------------------------------------------------
+  // Stage 3.
+  bool step3(LossTerms& terms, std::string& event);
+
+  void prune(std::string& event);
+
+  StepReport run_step() {
+    if (stage > 3) fail("trainer", "training has finished");
+    const auto t0 = std::chrono::steady_clock::now();
+    StepReport r;
+    r.stage = stage;
+    r.steps = stage_steps(stage);
+    bool ok = true;
+    if (r.steps > 0) {
+      ok = stage == 1 ? step1(r.loss, r.event) : stage == 2 ? step2(r.loss, r.event) : step3(r.loss, r.event);
+      if (ok) {
+        nan_streak = 0;
+      } else {
+        ++skipped;
+        ++nan_streak;
+        r.skipped = true;
+        if (nan_streak >= cfg.nan_patience)
+          fail("training", "stage " + std::to_string(stage) + " step " + std::to_string(step + 1) + ": " +
+                               std::to_string(nan_streak) +
+                               " steps in a row with a non-finite loss or gradient; stopping (nothing was updated "
+                               "by those steps; the last checkpoint is intact)");
+      }
+      ++step;
+    }
+    r.step = step;
+    seconds[size_t(stage - 1)] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // Advance through finished (or empty) stages.
+    while (stage <= 3 && step >= stage_steps(stage)) {
+      const auto t1 = std::chrono::steady_clock::now();
+      ++stage;
+      step = 0;
+      if (stage <= 3) {
+        begin_stage(stage);
+        r.event += (r.event.empty() ? "" : "; ") + std::string("begin stage ") + std::to_string(stage);
+      }
+      if (stage <= 3)
+        seconds[size_t(stage - 1)] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    }
+    r.gaussians = g.size();
+    return r;
+  }
+
+  // ---------------------------------------------------------------------------------
+  static void put_gaussians(TrainCheckpoint& ck, const std::string& pre, const GaussianParams& x);
+
+  TrainCheckpoint save() const;
+
+  void load(const TrainCheckpoint& ck, const std::string& where);
+
+  Avatar make_avatar(const GaussianParams& x) const;
+};
+
+}  // namespace haha

@@ -1,0 +1,176 @@
+// Stage 1: the Gaussians with per-frame pose refinement (no mesh), and densification.
+#include "train/trainer_impl.h"
+
+namespace haha {
+
+bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
+  const int n = g.size(), B = cfg.batch;
+  const LossWeights w = effective(1);
+  activate(g, float(cfg.scale_max), act);
+  d_offset.assign(3 * size_t(n), 0.0f);
+  d_rotation.assign(4 * size_t(n), 0.0f);
+  d_scale.assign(3 * size_t(n), 0.0f);
+  d_color.assign(3 * size_t(n), 0.0f);
+  d_betas.assign(betas.size(), 0.0f);
+  std::fill(frame_touched.begin(), frame_touched.end(), 0);
+  const float inv_b = 1.0f / float(B);
+  const bool need_knn = w.knn > 0 && n > 1 &&
+                        (knn_idx.size() != size_t(n) * cfg.s1.knn_k || step % cfg.s1.knn_every == 0);
+  for (int b = 0; b < B; ++b) {
+    const int64_t k = int64_t(step) * B + b;
+    const int fi = frame_of(1, k);
+    float bg[3];
+    background(1, k, bg);
+    pose_frame(fi, cfg.s1.refine_pose);
+    const GaussianSetView gv = gaussian_view();
+    AvatarRenderRequest req;
+    req.camera = &in.frames[size_t(fi)].camera;
+    const BodyTopology topology = topology_of(body);
+    req.body = &topology;
+    req.verts = verts.data();
+    req.face_scale_divisor = float(cfg.face_scale_divisor);
+    req.gaussians = &gv;
+    for (int c = 0; c < 3; ++c) req.background[c] = bg[c];
+    render_avatar(req, rbuf);
+    prepare_ground_truth(fi, bg);
+    d_image.assign(3 * size_t(P), 0.0f);
+    image_loss(rbuf.image.data(), gt.data(), H, W, nullptr, w, lctx, d_image.data(), inv_b, terms);
+    const float* d_alpha_ptr = nullptr;
+    if (w.dice > 0) {
+      d_alpha.assign(size_t(P), 0.0f);
+      const double v = dice_loss(rbuf.alpha.data(), in.frames[size_t(fi)].mask.data(), P, d_alpha.data(),
+                                 float(w.dice * inv_b));
+      terms.dice += v * inv_b;
+      terms.total += w.dice * v * inv_b;
+      d_alpha_ptr = d_alpha.data();
+    }
+    const float* d_means_ptr = nullptr;
+    if (b == 0 && w.knn > 0 && n > 1) {
+      if (need_knn) update_knn(rbuf.means.data());
+      d_means_extra.assign(3 * size_t(n), 0.0f);
+      rot_unit.resize(4 * size_t(n));
+      d_rot_unit.assign(4 * size_t(n), 0.0f);
+      for (int i = 0; i < n; ++i) {
+        const float* r = &g.rotation[4 * size_t(i)];
+        const float len = std::sqrt(std::max(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3], 1e-30f));
+        for (int c = 0; c < 4; ++c) rot_unit[4 * size_t(i) + c] = r[c] / len;
+      }
+      KnnRegInputs<float> ki;
+      ki.n = n;
+      ki.position = rbuf.means.data();
+      ki.rotation = rot_unit.data();
+      ki.scale = act.scale.data();
+      ki.color = act.color.data();
+      KnnRegGrads<float> kg;
+      kg.position = d_means_extra.data();
+      kg.rotation = d_rot_unit.data();
+      kg.scale = d_scale.data();
+      kg.color = d_color.data();
+      const double v = knn_reg(ki, knn_idx.data(), cfg.s1.knn_k, KnnRegWeights{}, &kg, float(w.knn));
+      terms.knn += v;
+      terms.total += w.knn * v;
+      d_means_ptr = d_means_extra.data();
+    }
+    d_verts.assign(3 * size_t(body.num_verts), 0.0f);
+    AvatarRenderGrads gr;
+    gr.verts = cfg.s1.refine_pose ? d_verts.data() : nullptr;
+    gr.offset = d_offset.data();
+    gr.rotation = d_rotation.data();
+    gr.scale = d_scale.data();
+    gr.color = d_color.data();
+    gr.means2d_norm_accum = grad_accum.data();
+    render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
+    for (int i = 0; i < n; ++i)
+      if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
+    if (cfg.s1.refine_pose) {
+      const SmplxParams fp = frame_params(fi);
+      SmplxGrad<float> sg = lbs.make_grad(fp);
+      lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
+      std::vector<float>& db = d_frame_body[size_t(fi)];
+      std::vector<float>& dfn = d_frame_fine[size_t(fi)];
+      if (!frame_touched[size_t(fi)]) {
+        std::fill(db.begin(), db.end(), 0.0f);
+        std::fill(dfn.begin(), dfn.end(), 0.0f);
+        frame_touched[size_t(fi)] = 1;
+      }
+      pose_to_groups(sg, db.data(), dfn.data(), /*accumulate=*/true);
+      for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q] * inv_b;
+    }
+  }
+  if (!rot_unit.empty() && !d_rot_unit.empty() && w.knn > 0 && n > 1)
+    for (int i = 0; i < n; ++i) {
+      float dr[4];
+      normalize_quat_backward(&g.rotation[4 * size_t(i)], &d_rot_unit[4 * size_t(i)], dr);
+      for (int c = 0; c < 4; ++c) d_rotation[4 * size_t(i) + c] += dr[c];
+    }
+  // The batch mean of the image terms is in d_image's scale; the KNN gradient was added
+  // once; the densification statistic stays a per-view sum (3DGS).
+  d_scale_logit.resize(3 * size_t(n));
+  d_color_logit.resize(3 * size_t(n));
+  activation_backward(act, float(cfg.scale_max), n, d_scale.data(), d_color.data(), nullptr, d_scale_logit.data(),
+                      d_color_logit.data(), nullptr);
+  if (hook) hook(1, d_offset);
+  bool ok = std::isfinite(terms.total) && finite_all(d_offset) && finite_all(d_rotation) &&
+            finite_all(d_scale_logit) && finite_all(d_color_logit) && finite_all(d_betas);
+  for (int i = 0; i < nf && ok; ++i)
+    if (frame_touched[size_t(i)]) ok = finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)]);
+  if (!ok) return false;
+
+  const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
+  adam.set_lr(adam.group("offset"), sched(step));
+  adam.step(adam.group("offset"), g.offset.data(), d_offset.data());
+  adam.step(adam.group("rotation"), g.rotation.data(), d_rotation.data());
+  adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
+  adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
+  if (cfg.s1.refine_pose) {
+    adam.step(adam.group("betas"), betas.data(), d_betas.data());
+    for (int i = 0; i < nf; ++i) {
+      if (!frame_touched[size_t(i)]) continue;
+      // Mean over the batch: a frame drawn twice in one batch counts twice.
+      for (float& x : d_frame_body[size_t(i)]) x *= inv_b;
+      for (float& x : d_frame_fine[size_t(i)]) x *= inv_b;
+      std::vector<float> body_vals(kPoseBodyGroup), fine_vals(kPoseFineGroup);
+      SmplxParams& p = params[size_t(i)];
+      pose_to_groups(p, body_vals.data(), fine_vals.data());
+      adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
+      adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
+      groups_to_pose(body_vals.data(), fine_vals.data(), p);
+    }
+  }
+  // Densification, after the update (3DGS order), on the completed-step count.
+  const int done_steps = step + 1;
+  const Stage1Config& s1 = cfg.s1;
+  if (s1.densify_every > 0 && done_steps > s1.densify_from && done_steps < s1.densify_until &&
+      done_steps % s1.densify_every == 0)
+    densify(event);
+  return true;
+}
+
+void Trainer::Impl::densify(std::string& event) {
+  const Stage1Config& s1 = cfg.s1;
+  // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size.
+  std::vector<float> ndc(grad_accum.size());
+  const float to_ndc = 0.5f * float(std::max(W, H));
+  for (size_t i = 0; i < ndc.size(); ++i) ndc[i] = grad_accum[i] * to_ndc;
+  const DensifyPlan plan =
+      plan_densify(g, float(cfg.scale_max), ndc, grad_count, s1.densify_grad, s1.densify_clone_scale, s1.max_gaussians);
+  const int before = g.size();
+  const DensifyResult r = apply_densify(g, plan, float(cfg.scale_max), s1.densify_split_std, s1.densify_split_div,
+                                        hash64(cfg.seed, stream(1, kSplit), uint64_t(step)));
+  for (const char* name : {"offset", "rotation", "scale", "color"}) adam.reindex(adam.group(name), r.adam_source);
+  knn_idx.clear();
+  // Distribution of the statistic (visible Gaussians), to judge the threshold.
+  std::vector<float> seen;
+  for (size_t i = 0; i < ndc.size(); ++i)
+    if (grad_count[i] > 0) seen.push_back(ndc[i] / grad_count[i]);
+  std::sort(seen.begin(), seen.end());
+  auto pct = [&](double q) { return seen.empty() ? 0.0 : double(seen[size_t(q * double(seen.size() - 1))]); };
+  char buf[192];
+  std::snprintf(buf, sizeof buf, "densify %d -> %d (clone %d, split %d; mean grad p50 %.2g p90 %.2g p99 %.2g)", before,
+                g.size(), r.cloned, r.split, pct(0.5), pct(0.9), pct(0.99));
+  event = buf;
+  grad_accum.assign(size_t(g.size()), 0.0f);
+  grad_count.assign(size_t(g.size()), 0.0f);
+}
+
+}  // namespace haha

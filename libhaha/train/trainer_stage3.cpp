@@ -1,0 +1,98 @@
+// Stage 3: learned filtering of the Gaussians over the frozen textured mesh, and pruning.
+#include "train/trainer_impl.h"
+
+namespace haha {
+
+bool Trainer::Impl::step3(LossTerms& terms, std::string& event) {
+  const int n = g.size(), B = cfg.batch;
+  const LossWeights w = effective(3);
+  const float inv_b = 1.0f / float(B);
+  activate(g, float(cfg.scale_max), act);
+  d_color.assign(3 * size_t(n), 0.0f);
+  d_opacity.assign(size_t(n), 0.0f);
+  for (int b = 0; b < B; ++b) {
+    const int64_t k = int64_t(step) * B + b;
+    const int fi = frame_of(3, k);
+    float bg[3];
+    background(3, k, bg);
+    MeshCache& m = mesh_of(fi);
+    const MeshLayerView layer{m.depth.data(), m.color.data(), m.mask.data()};
+    const GaussianSetView gv = gaussian_view();
+    AvatarRenderRequest req;
+    req.camera = &in.frames[size_t(fi)].camera;
+    const BodyTopology topology = topology_of(body);
+    req.body = &topology;
+    req.verts = frame_verts[size_t(fi)].data();
+    req.face_scale_divisor = float(cfg.face_scale_divisor);
+    req.gaussians = &gv;
+    req.mesh_layer = &layer;
+    req.depth_margin = float(cfg.s3.depth_margin);
+    for (int c = 0; c < 3; ++c) req.background[c] = bg[c];
+    render_avatar(req, rbuf);
+    prepare_ground_truth(fi, bg);
+    d_image.assign(3 * size_t(P), 0.0f);
+    image_loss(rbuf.image.data(), gt.data(), H, W, nullptr, w, lctx, d_image.data(), inv_b, terms);
+    const float* d_alpha_ptr = nullptr;
+    if (w.dice > 0) {
+      sil.resize(size_t(P));
+      d_sil.assign(size_t(P), 0.0f);
+      silhouette_union(m.mask.data(), rbuf.alpha.data(), P, sil.data());
+      const double v = dice_loss(sil.data(), in.frames[size_t(fi)].mask.data(), P, d_sil.data(), float(w.dice * inv_b));
+      terms.dice += v * inv_b;
+      terms.total += w.dice * v * inv_b;
+      d_alpha.resize(size_t(P));
+      silhouette_union_backward(m.mask.data(), d_sil.data(), P, d_alpha.data());
+      d_alpha_ptr = d_alpha.data();
+    }
+    if (b == 0 && w.knn > 0 && n > 1) {
+      if (knn_idx.size() != size_t(n) * cfg.s1.knn_k) update_knn(rbuf.means.data());
+      KnnRegInputs<float> ki;
+      ki.n = n;
+      ki.opacity = act.opacity.data();
+      ki.color = act.color.data();
+      KnnRegGrads<float> kg;
+      kg.opacity = d_opacity.data();
+      kg.color = d_color.data();
+      const double v = knn_reg(ki, knn_idx.data(), cfg.s1.knn_k, KnnRegWeights{}, &kg, float(w.knn));
+      terms.knn += v;
+      terms.total += w.knn * v;
+    }
+    AvatarRenderGrads gr;
+    gr.color = d_color.data();
+    gr.opacity = d_opacity.data();
+    render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, nullptr, gr);
+  }
+  if (w.opacity > 0 && n > 0) {
+    const double v = opacity_reg(act.opacity.data(), n, cfg.s3.opacity_mode, d_opacity.data(), float(w.opacity));
+    terms.opacity += v;
+    terms.total += w.opacity * v;
+  }
+  d_color_logit.resize(3 * size_t(n));
+  d_opacity_logit.resize(size_t(n));
+  activation_backward(act, float(cfg.scale_max), n, nullptr, d_color.data(), d_opacity.data(), nullptr,
+                      d_color_logit.data(), d_opacity_logit.data());
+  if (hook) hook(3, d_opacity_logit);
+  if (!std::isfinite(terms.total) || !finite_all(d_opacity_logit) || !finite_all(d_color_logit)) return false;
+  adam.step(adam.group("opacity"), g.opacity_logit.data(), d_opacity_logit.data());
+  adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
+  const int done_steps = step + 1;
+  if ((cfg.s3.prune_every > 0 && done_steps % cfg.s3.prune_every == 0) || done_steps == cfg.s3.steps) prune(event);
+  return true;
+}
+
+void Trainer::Impl::prune(std::string& event) {
+  const int before = g.size();
+  const float thr = logit(float(cfg.s3.prune_threshold));
+  std::vector<uint8_t> keep(static_cast<size_t>(before));
+  for (int i = 0; i < before; ++i)
+    keep[size_t(i)] = cfg.s3.prune_threshold <= 0 || g.opacity_logit[size_t(i)] >= thr;
+  const std::vector<int64_t> idx = indices_where(keep);
+  if (int(idx.size()) == before) return;
+  select(g, idx);
+  adam.reindex(adam.group("opacity"), idx);
+  adam.reindex(adam.group("color"), idx);
+  knn_idx.clear();
+  event = "prune " + std::to_string(before) + " -> " + std::to_string(g.size());
+}
+
+}  // namespace haha

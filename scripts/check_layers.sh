@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# The layering check (run by ctest as `layering`): every #include "<layer>/..." in the
+# sources must point at the same layer or one it may use. Layers, bottom up:
+#   core < body < render < cuda < train;  io < data;  format;  app;  cli
+# Fails with one line per wrong-way include: file:line: <layer> may not include <layer>/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+declare -A allowed=(
+  [core]="core"
+  [body]="core body"
+  [render]="core body render"
+  [cuda]="core body render cuda"
+  [train]="core body render cuda train"
+  [io]="core body render io"
+  [data]="core body render io data"
+  [format]="core body render io format"
+  [app]="core body render cuda train io data format app"
+  [cli]="core body render train io data format app"
+)
+
+layer_of() {  # path -> layer name
+  case "$1" in
+    libhaha/*) local rest=${1#libhaha/}; echo "${rest%%/*}" ;;
+    format/*) echo format ;;
+    app/*) echo app ;;
+    cli/*) echo cli ;;
+  esac
+}
+
+bad=0
+while IFS= read -r file; do
+  layer=$(layer_of "$file")
+  [ -n "${allowed[$layer]+x}" ] || { echo "$file: unknown layer '$layer' (add it to scripts/check_layers.sh)"; bad=1; continue; }
+  while IFS=: read -r line target; do
+    case " ${allowed[$layer]} " in
+      *" $target "*) ;;
+      *) echo "$file:$line: $layer may not include $target/"; bad=1 ;;
+    esac
+  done < <(grep -n '^[[:space:]]*#[[:space:]]*include[[:space:]]*"[a-z_]*/' "$file" |
+           sed -E 's/^([0-9]+):[[:space:]]*#[[:space:]]*include[[:space:]]*"([a-z_]+)\/.*/\1:\2/')
+done < <(find libhaha format app cli -type f \( -name '*.h' -o -name '*.cpp' -o -name '*.cu' -o -name '*.cuh' \) | sort)
+
+if [ "$bad" -ne 0 ]; then
+  echo "check_layers: wrong-way includes found (see the layer list at the top of scripts/check_layers.sh)"
+  exit 1
+fi
+echo "check_layers: every include points down or sideways"

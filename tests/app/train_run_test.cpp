@@ -1,0 +1,205 @@
+// File side of training: the run config as JSON, checkpoints as npz, dataset frames turned
+// into training frames, and the driver (run directory outputs, kill + --resume reaching
+// the uninterrupted result, bad frames reported before any work).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "app/run_dir.h"
+#include "app/train_frames.h"
+#include "app/train_run.h"
+#include "data/dataset.h"
+#include "format/avatar_npz.h"
+#include "io/body_model_io.h"
+#include "io/npy.h"
+#include "support/data_test_util.h"
+#include "support/train_test_scene.h"
+
+namespace haha {
+namespace {
+
+namespace fs = std::filesystem;
+using testutil::expect_error;
+
+class TrainRunTest : public testutil::TempDirTest {
+ protected:
+  // A small dataset on disk rendered from the test scene: 6 train + 2 test frames, 48 px,
+  // images on black (premultiplied), with the body model beside it.
+  std::string make_dataset() {
+    const std::string dir = path("ds");
+    const Avatar truth = test::scene_truth();
+    const std::vector<TrainFrame> f = test::scene_frames(truth, 8, 48);
+    DatasetWriter w(dir, 48, 48, 30.0, "neutral", "haha synth: test scene");
+    for (size_t i = 0; i < f.size(); ++i) {
+      DatasetFrame df;
+      df.split = i < 6 ? Split::train : Split::test;
+      df.camera = f[i].camera;
+      df.params = f[i].params;
+      Image rgb(48, 48, 3), mask(48, 48, 1);
+      rgb.data = f[i].rgb;
+      mask.data = f[i].mask;
+      w.add(df, rgb, mask);
+    }
+    w.finish();
+    save_body_model(test::scene_body(), dir + "/body_model.npz");
+    return dir;
+  }
+  TrainRunOptions options(const std::string& data, const std::string& run) {
+    TrainRunOptions o;
+    o.data_dir = data;
+    o.run_dir = run;
+    o.preset = "tiny";
+    o.overrides = {"resolution=0", "s1.steps=6", "s2.steps=4", "s3.steps=5", "s2.texture_size=16",
+                   "s1.densify.from=1", "s1.densify.every=2", "s1.densify.grad=1e-5", "s3.prune_every=2",
+                   "checkpoint_every=2", "batch=2"};
+    o.log = [this](const std::string& s) { log_ += s + "\n"; };
+    return o;
+  }
+  std::string log_;
+};
+
+TEST_F(TrainRunTest, RunInfoRoundTripsThroughJson) {
+  RunInfo a;
+  a.model_path = "/m/SMPLX_NEUTRAL.npz";
+  a.data_path = "/d/ds";
+  a.lpips_weights_path = "/w/lpips.npz";
+  a.config = make_preset("tiny");
+  apply_overrides(a.config, {"s1.lr.offset_init=1.234567890123e-3", "use_dice=false", "seed=7"});
+  fs::create_directories(path("run"));
+  const RunDir run(path("run"));
+  write_run_info(run, a);
+  const RunInfo b = read_run_info(run);
+  EXPECT_TRUE(b.trained);
+  EXPECT_EQ(b.model_path, a.model_path);
+  EXPECT_EQ(b.data_path, a.data_path);
+  EXPECT_EQ(b.lpips_weights_path, a.lpips_weights_path);
+  EXPECT_EQ(config_to_pairs(b.config), config_to_pairs(a.config));
+  EXPECT_EQ(b.config.s1.lr_offset_init, a.config.s1.lr_offset_init);
+  // Errors name the file and key.
+  fs::create_directories(path("bad"));
+  std::ofstream(path("bad/config.json")) << R"({"format": "haha-run", "version": 1, "model": "m", "data": "d",
+    "config": {"s1.stepz": 3}})";
+  expect_error([&] { read_run_info(RunDir(path("bad"))); }, {"bad/config.json: config: s1.stepz: unknown key"});
+  fs::create_directories(path("notjson"));
+  std::ofstream(path("notjson/config.json")) << "{";
+  expect_error([&] { read_run_info(RunDir(path("notjson"))); }, {"notjson/config.json: not valid JSON"});
+  expect_error([&] { read_run_info(RunDir(path("nowhere"))); }, {"nowhere/config.json", "missing"});
+}
+
+TEST_F(TrainRunTest, AnUnpackedAvatarsConfigNamesItsModelAndNoTraining) {
+  fs::create_directories(path("unpacked"));
+  const RunDir run(path("unpacked"));
+  RunInfo a;
+  a.trained = false;
+  a.model_path = "body.npz";
+  a.unpacked_from = "avatar.glb";
+  write_run_info(run, a);
+  std::ofstream(path("unpacked/body.npz")) << "x";  // only its existence matters here
+  const RunInfo b = read_run_info(run);
+  EXPECT_FALSE(b.trained);
+  EXPECT_EQ(b.unpacked_from, "avatar.glb");
+  EXPECT_EQ(fs::path(b.model_path), fs::path(path("unpacked")) / "body.npz");  // resolved in the run directory
+  expect_error([&] { read_trained_run_info(run, "haha eval"); },
+               {"unpacked/config.json", "haha eval needs a trained run", "avatar.glb"});
+  // A hand-made directory: only the model.
+  fs::create_directories(path("hand"));
+  std::ofstream(path("hand/config.json")) << R"({"model": "/abs/SMPLX_NEUTRAL.npz"})";
+  const RunInfo h = read_run_info(RunDir(path("hand")));
+  EXPECT_FALSE(h.trained);
+  EXPECT_EQ(h.model_path, "/abs/SMPLX_NEUTRAL.npz");
+}
+
+TEST_F(TrainRunTest, CheckpointsRoundTrip) {
+  TrainCheckpoint ck;
+  ck.f32["g.offset"] = {1.5f, -2.0f, 3.25f};
+  ck.f32["empty"] = {};
+  ck.i32["meta.version"] = {1};
+  ck.i32["g.face"] = {4, 5, 6};
+  ck.f64["time.seconds"] = {1.0, 2.5, 3.0};
+  write_checkpoint(path("ck.npz"), ck);
+  const TrainCheckpoint r = read_checkpoint(path("ck.npz"));
+  EXPECT_EQ(r.f32, ck.f32);
+  EXPECT_EQ(r.i32, ck.i32);
+  EXPECT_EQ(r.f64, ck.f64);
+  Npz other;
+  other.set("x", NpyArray::from(std::vector<float>{1.0f}, {1}));
+  other.write(path("other.npz"));
+  expect_error([&] { read_checkpoint(path("other.npz")); }, {"other.npz", "not a haha training checkpoint"});
+  EXPECT_TRUE(leftovers().empty());
+}
+
+TEST_F(TrainRunTest, DatasetFramesAreResizedWithTheirCameras) {
+  Dataset ds = read_dataset(make_dataset());
+  EXPECT_TRUE(dataset_premultiplied(ds, "auto"));  // made by "haha synth"
+  EXPECT_FALSE(dataset_premultiplied(ds, "false"));
+  const std::vector<TrainFrame> full = dataset_frames(ds, Split::train, 0);
+  const std::vector<TrainFrame> half = dataset_frames(ds, Split::train, 24);
+  ASSERT_EQ(full.size(), 6u);
+  ASSERT_EQ(dataset_frames(ds, Split::test, 0).size(), 2u);
+  EXPECT_EQ(half[0].camera.width, 24);
+  EXPECT_EQ(half[0].rgb.size(), size_t(24 * 24 * 3));
+  EXPECT_EQ(half[0].mask.size(), size_t(24 * 24));
+  EXPECT_FLOAT_EQ(half[0].camera.fx, full[0].camera.fx / 2);
+  EXPECT_FLOAT_EQ(half[0].camera.cx, full[0].camera.cx / 2);
+  // Area resize keeps the mean colour.
+  double a = 0, b = 0;
+  for (float v : full[0].rgb) a += v / full[0].rgb.size();
+  for (float v : half[0].rgb) b += v / half[0].rgb.size();
+  EXPECT_NEAR(a, b, 1e-3);
+}
+
+TEST_F(TrainRunTest, RunWritesItsOutputsAndResumeReachesTheSameState) {
+  const std::string data = make_dataset();
+  const TrainRunResult full = run_training(options(data, path("run")));
+  EXPECT_TRUE(full.finished);
+  EXPECT_EQ(full.steps_run, 15);
+  for (const char* f : {"config.json", "checkpoint.npz", "checkpoint_stage1.npz", "checkpoint_stage2.npz",
+                        "checkpoint_stage3.npz", "avatar.npz", "avatar_stage1.npz", "smplx_refined.npz",
+                        "train_summary.json"})
+    EXPECT_TRUE(fs::exists(path("run/") + f)) << f;
+  EXPECT_EQ(load_avatar_npz(path("run/avatar.npz")).gaussians.size(), full.gaussians);
+  EXPECT_EQ(load_avatar_npz(path("run/avatar_stage1.npz")).gaussians.size(), full.gaussians_stage1);
+  EXPECT_NE(log_.find("[stage 1]"), std::string::npos);
+  EXPECT_NE(log_.find("ETA"), std::string::npos);
+  const std::array<double, 3> secs = read_train_seconds(RunDir(path("run")));
+  EXPECT_GT(secs[0], 0.0);
+
+  // Killed after 8 steps (stage 2), resumed: the final checkpoint equals the full run's.
+  TrainRunOptions o = options(data, path("run2"));
+  o.stop_after = 8;
+  const TrainRunResult part = run_training(o);
+  EXPECT_FALSE(part.finished);
+  EXPECT_FALSE(fs::exists(path("run2/avatar.npz")));
+  TrainRunOptions r = options("", path("run2"));
+  r.overrides.clear();
+  r.resume = true;
+  const TrainRunResult rest = run_training(r);
+  EXPECT_TRUE(rest.finished);
+  EXPECT_EQ(rest.steps_run, 7);
+  const TrainCheckpoint a = read_checkpoint(path("run/checkpoint.npz"));
+  const TrainCheckpoint b = read_checkpoint(path("run2/checkpoint.npz"));
+  EXPECT_EQ(a.f32, b.f32);
+  EXPECT_EQ(a.i32, b.i32);
+  EXPECT_EQ(fs::file_size(path("run/smplx_refined.npz")), fs::file_size(path("run2/smplx_refined.npz")));
+
+  // Resume refuses overrides, and a fresh run refuses an existing run directory.
+  r.overrides = {"s1.steps=9"};
+  expect_error([&] { run_training(r); }, {"--resume", "overrides are not allowed"});
+  expect_error([&] { run_training(options(data, path("run"))); }, {"a run already exists here", "--resume"});
+}
+
+TEST_F(TrainRunTest, BadFramesAreReportedBeforeTraining) {
+  const std::string data = make_dataset();
+  // An unreadable image: the error names the file, nothing is trained or checkpointed.
+  std::ofstream(data + "/images/000003.png", std::ios::trunc) << "not a png";
+  expect_error([&] { run_training(options(data, path("run"))); }, {"000003.png"});
+  EXPECT_FALSE(fs::exists(path("run/checkpoint.npz")));
+  // A missing body model.
+  const std::string data2 = path("ds2");
+  fs::create_directories(data2);
+  expect_error([&] { run_training(options(data2, path("run3"))); }, {"--model", "body_model.npz"});
+}
+
+}  // namespace
+}  // namespace haha

@@ -1,0 +1,645 @@
+// The synthetic subject (`haha synth`) and contact sheets: motions (full turn, novel test
+// poses, moving fingers, grounded), fit noise, renders (masks consistent with images,
+// anti-aliased, full body in frame, Y up on screen, garments outside the body
+// silhouette), the dataset on disk (reads back, deterministic, atomic), bad options.
+// Runs on the low-resolution procedural body at small sizes.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "body/lbs.h"
+#include "body/procedural_body.h"
+#include "body/rotation.h"
+#include "core/error.h"
+#include "core/parallel.h"
+#include "data/contact_sheet.h"
+#include "data/dataset.h"
+#include "data/synth_internal.h"
+#include "data/synth_subject.h"
+#include "io/image.h"
+#include "io/npy.h"
+#include "support/expect_error.h"
+
+namespace haha {
+namespace {
+
+namespace fs = std::filesystem;
+
+const BodyModel& low_body() {
+  static const BodyModel b = [] {
+    ProceduralBodyOptions o;
+    o.resolution = BodyResolution::low;
+    return make_procedural_body(o);
+  }();
+  return b;
+}
+
+const SynthSubject& low_subject() {
+  static const SynthSubject s = [] {
+    SynthSubjectOptions o;
+    o.texture_size = 256;
+    return make_synth_subject(low_body(), o);
+  }();
+  return s;
+}
+
+using haha::test::expect_error;
+
+class TempDir : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("haha_synth_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+SynthOptions small_options() {
+  SynthOptions o;
+  o.size = 48;
+  o.train_frames = 6;
+  o.test_frames = 3;
+  o.supersample = 2;
+  o.texture_size = 256;
+  return o;
+}
+
+Mat3<double> joint_rotation(const SmplxParams& p, int j) {
+  return rodrigues(Vec3<double>(p.pose[3 * j], p.pose[3 * j + 1], p.pose[3 * j + 2]));
+}
+
+// ---------------------------------------------------------------------------------------
+// Contact sheet and font
+
+TEST(ContactSheet, FontHasDistinctGlyphsAndMapsUnknownToQuestionMark) {
+  const std::string chars = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ.,:-_/()=+%#!?";
+  std::map<std::string, char> seen;
+  for (char c : chars) {
+    std::string bits;
+    int set = 0;
+    for (int y = 0; y < kFontHeight; ++y)
+      for (int x = 0; x < kFontWidth; ++x) {
+        bits += font_pixel(c, x, y) ? '1' : '0';
+        set += font_pixel(c, x, y);
+      }
+    EXPECT_GT(set, 0) << c;
+    EXPECT_TRUE(seen.emplace(bits, c).second) << c << " looks like " << seen[bits];
+  }
+  for (int y = 0; y < kFontHeight; ++y)
+    for (int x = 0; x < kFontWidth; ++x) {
+      EXPECT_EQ(font_pixel('a', x, y), font_pixel('A', x, y));
+      EXPECT_EQ(font_pixel('~', x, y), font_pixel('?', x, y));
+      EXPECT_FALSE(font_pixel(' ', x, y));
+    }
+  EXPECT_FALSE(font_pixel('A', -1, 0));
+  EXPECT_FALSE(font_pixel('A', 0, kFontHeight));
+  EXPECT_EQ(text_width("", 1), 0);
+  EXPECT_EQ(text_width("AB", 1), 11);
+  EXPECT_EQ(text_width("AB", 2), 22);
+}
+
+TEST(ContactSheet, DrawTextStaysInsideItsBoxAndClipsAtTheBorder) {
+  Image img(40, 20, 3, 0.0f);
+  const float white[3] = {1, 1, 1};
+  draw_text(img, 3, 4, "H1", white, 1);
+  int inside = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x)
+      if (img.at(x, y, 0) > 0) {
+        EXPECT_TRUE(x >= 3 && x < 3 + text_width("H1") && y >= 4 && y < 4 + kFontHeight) << x << "," << y;
+        ++inside;
+      }
+  EXPECT_GT(inside, 10);
+  // Partly outside: no crash, only in-image pixels drawn.
+  draw_text(img, -4, -3, "WWW", white, 3);
+  draw_text(img, 38, 18, "WWW", white, 3);
+  Image grey(8, 8, 1, 0.0f);
+  draw_text(grey, 0, 0, "#", white, 1);
+  EXPECT_EQ(grey.at(1, 0, 0), 1.0f);
+}
+
+TEST(ContactSheet, GridLayoutRowsLabelsAndShrinking) {
+  std::vector<ContactSheetTile> tiles;
+  for (int i = 0; i < 5; ++i) {
+    ContactSheetTile t;
+    t.image = Image(20, 10, 3, 0.5f);
+    t.label = "T" + std::to_string(i);
+    tiles.push_back(t);
+  }
+  tiles[3].new_row = true;  // rows: [0 1 2] [3 4]
+  ContactSheetOptions o;
+  o.columns = 4;
+  o.padding = 2;
+  const Image s = make_contact_sheet(tiles, o);
+  const int label_h = kFontHeight + 3;
+  EXPECT_EQ(s.width, 2 + 3 * (20 + 2));
+  EXPECT_EQ(s.height, 2 + 2 * (10 + label_h + 2));
+  EXPECT_EQ(s.channels, 3);
+  // Tile pixels copied, label text drawn under the first tile.
+  EXPECT_FLOAT_EQ(s.at(2 + 5, 2 + 5, 1), 0.5f);
+  int text = 0;
+  for (int y = 2 + 10; y < 2 + 10 + label_h; ++y)
+    for (int x = 2; x < 22; ++x) text += s.at(x, y, 0) > 0.9f;
+  EXPECT_GT(text, 5);
+  // Shrinking keeps the aspect; grey and RGBA tiles are accepted.
+  tiles.clear();
+  tiles.push_back({Image(200, 100, 1, 1.0f), "", false});
+  tiles.push_back({Image(50, 50, 4, 1.0f), "", false});
+  o.max_tile = 40;
+  const Image s2 = make_contact_sheet(tiles, o);
+  EXPECT_EQ(s2.width, 2 + 2 * (40 + 2));
+  EXPECT_EQ(s2.height, 2 + 40 + 2);
+}
+
+TEST(ContactSheet, BadInputIsAnError) {
+  expect_error([] { make_contact_sheet({}); }, "no tiles");
+  expect_error([] { make_contact_sheet({{Image(), "x", false}}); }, "empty image");
+  expect_error([] { make_contact_sheet({{Image(4, 4, 2), "x", false}}); }, "channels");
+  ContactSheetOptions o;
+  o.columns = 0;
+  expect_error([&] { make_contact_sheet({{Image(4, 4, 3), "x", false}}, o); }, "columns");
+}
+
+// ---------------------------------------------------------------------------------------
+// Subject
+
+TEST(SynthSubject, GarmentMeshesAreWellFormedAndSkinned) {
+  const SynthSubject& s = low_subject();
+  std::map<std::string, const SynthMesh*> by;
+  for (const SynthMesh& m : s.meshes) by[m.name] = &m;
+  ASSERT_TRUE(by.count("hair") && by.count("ponytail") && by.count("skirt"));
+  for (const SynthMesh& m : s.meshes) {
+    SCOPED_TRACE(m.name);
+    ASSERT_GT(m.num_faces(), 20);
+    ASSERT_EQ(m.ft.size(), m.faces.size());
+    ASSERT_EQ(int(m.w_start.size()), m.num_verts() + 1);
+    const int nuv = int(m.vt.size() / 2);
+    for (size_t i = 0; i < m.faces.size(); ++i) {
+      ASSERT_TRUE(m.faces[i] >= 0 && m.faces[i] < m.num_verts());
+      ASSERT_TRUE(m.ft[i] >= 0 && m.ft[i] < nuv);
+    }
+    for (float u : m.vt) ASSERT_TRUE(u >= 0 && u <= 1);
+    for (int v = 0; v < m.num_verts(); ++v) {
+      double sum = 0;
+      for (int k = m.w_start[v]; k < m.w_start[v + 1]; ++k) {
+        ASSERT_TRUE(m.w_joint[k] >= 0 && m.w_joint[k] < kNumJoints);
+        ASSERT_GE(m.w_value[k], 0.0f);
+        sum += m.w_value[k];
+      }
+      ASSERT_NEAR(sum, 1.0, 1e-5) << v;
+    }
+    for (float x : m.rest) ASSERT_TRUE(std::isfinite(x));
+  }
+  // The skirt follows the thighs: its hem is skinned to both hips, its waist to the pelvis.
+  const SynthMesh& sk = *by["skirt"];
+  const int last = sk.num_verts() - 1;
+  bool hips = false;
+  for (int k = sk.w_start[last]; k < sk.w_start[last + 1]; ++k) hips |= (sk.w_joint[k] == 1 || sk.w_joint[k] == 2);
+  EXPECT_TRUE(hips);
+  EXPECT_EQ(sk.w_start[1] - sk.w_start[0], 1);
+  EXPECT_EQ(sk.w_joint[0], 0);
+  for (const Image* t : {&s.body_texture, &s.garment_texture}) {
+    ASSERT_FALSE(t->empty());
+    for (float x : t->data) ASSERT_TRUE(x >= 0 && x <= 1);
+  }
+}
+
+// Whether a ray from o along d crosses triangle (a, b, c) at t > 0 (Moller-Trumbore).
+bool ray_hits(synth::V3 o, synth::V3 d, synth::V3 a, synth::V3 b, synth::V3 c) {
+  const synth::V3 e1 = b - a, e2 = c - a, p = cross(d, e2);
+  const double det = dot(e1, p);
+  if (std::abs(det) < 1e-14) return false;
+  const synth::V3 s = o - a;
+  const double u = dot(s, p) / det;
+  if (u < 0 || u > 1) return false;
+  const synth::V3 q = cross(s, e1);
+  const double v = dot(d, q) / det;
+  if (v < 0 || u + v > 1) return false;
+  return dot(e2, q) / det > 0;
+}
+
+// Vertices of `mesh` inside some closed part of the low procedural body (rest pose).
+// Parts overlap, so parity is taken per part.
+int vertices_inside_body(const SynthMesh& mesh) {
+  const SynthSubject& s = low_subject();
+  const BodyModel& body = low_body();
+  ProceduralBodyInfo info;
+  ProceduralBodyOptions po;
+  po.resolution = BodyResolution::low;
+  make_procedural_body(po, &info);
+  auto P = [&](const std::vector<float>& v, int i) { return synth::V3(v[3 * i], v[3 * i + 1], v[3 * i + 2]); };
+  const synth::V3 dir = synth::unit(synth::V3(1, 0.31, 0.17));  // generic: no edge-on hits
+  int inside = 0;
+  for (int v = 0; v < mesh.num_verts(); ++v) {
+    const synth::V3 p = P(mesh.rest, v);
+    bool in = false;
+    for (const ProceduralPart& part : info.parts) {
+      int crossings = 0;
+      for (int f = part.first_face; f < part.first_face + part.num_faces; ++f)
+        crossings += ray_hits(p, dir, P(s.rest_verts, body.faces[3 * f]), P(s.rest_verts, body.faces[3 * f + 1]),
+                              P(s.rest_verts, body.faces[3 * f + 2]));
+      in |= crossings % 2 == 1;
+    }
+    inside += in;
+  }
+  return inside;
+}
+
+// Largest distance from a vertex of `mesh` to its nearest body vertex (rest pose).
+double max_gap_to_body(const SynthMesh& mesh) {
+  const SynthSubject& s = low_subject();
+  double gap = 0;
+  for (int v = 0; v < mesh.num_verts(); ++v) {
+    double nearest = 1e9;
+    for (size_t b = 0; b < s.rest_verts.size(); b += 3)
+      nearest = std::min<double>(nearest, std::hypot(s.rest_verts[b] - mesh.rest[3 * v], s.rest_verts[b + 1] - mesh.rest[3 * v + 1],
+                                             s.rest_verts[b + 2] - mesh.rest[3 * v + 2]));
+    gap = std::max(gap, nearest);
+  }
+  return gap;
+}
+
+const SynthMesh& mesh_named(const std::string& name) {
+  for (const SynthMesh& m : low_subject().meshes)
+    if (m.name == name) return m;
+  throw std::runtime_error("no mesh " + name);
+}
+
+TEST(SynthSubject, HairAndSkirtLieOutsideTheBodyAndLeaveItsSurface) {
+  const SynthMesh& hair = mesh_named("hair");
+  const SynthMesh& skirt = mesh_named("skirt");
+  ASSERT_GT(hair.num_verts(), 50);
+  EXPECT_EQ(vertices_inside_body(hair), 0);
+  EXPECT_EQ(vertices_inside_body(skirt), 0);
+  const double hair_gap = max_gap_to_body(hair), skirt_gap = max_gap_to_body(skirt);
+  EXPECT_GT(hair_gap, 0.015);  // up to ~3.5 cm of hair
+  EXPECT_LT(hair_gap, 0.06);
+  EXPECT_GT(skirt_gap, 0.08);  // the flared hem stands well off the thighs
+  EXPECT_LT(skirt_gap, 0.4);
+}
+
+TEST(SynthSubject, NeedsAUvMapAndASaneTextureSize) {
+  BodyModel b = low_body();
+  b.vt.clear();
+  expect_error([&] { make_synth_subject(b); }, "UV map");
+  SynthSubjectOptions o;
+  o.texture_size = 4;
+  expect_error([&] { make_synth_subject(low_body(), o); }, "texture size");
+}
+
+// ---------------------------------------------------------------------------------------
+// Motions
+
+TEST(SynthMotion, TrainingTurnsOnceAroundTheVerticalAxis) {
+  const SynthMotion m = make_synth_motion(low_body(), low_subject(), 12, 4, 0);
+  ASSERT_EQ(m.train.size(), 12u);
+  ASSERT_EQ(m.test.size(), 4u);
+  for (int i = 0; i < 12; ++i) {
+    const double a = 2 * synth::kPi * i / 12;
+    const Mat3<double> R = joint_rotation(m.train[i], 0);
+    const Mat3<double> E = rodrigues(Vec3<double>(0, a, 0));
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(R.a[r][c], E.a[r][c], 1e-6) << "frame " << i;
+  }
+}
+
+TEST(SynthMotion, EveryTestPoseIsNovel) {
+  for (uint64_t seed : {0u, 1u, 7u})
+    for (auto [ntrain, ntest] : {std::pair{40, 10}, std::pair{300, 60}}) {
+      const SynthMotion m = make_synth_motion(low_body(), low_subject(), ntrain, ntest, seed);
+      double gap = 1e9;
+      for (const SmplxParams& t : m.test)
+        for (const SmplxParams& r : m.train) gap = std::min(gap, pose_distance(t, r));
+      EXPECT_GE(gap, kSynthMinPoseGap) << "seed " << seed << ", " << ntrain << "/" << ntest;
+    }
+  // pose_distance itself: 0 for equal poses, the joint angle for one rotated joint, and
+  // blind to the global orientation (the viewpoint).
+  SmplxParams a, b;
+  EXPECT_EQ(pose_distance(a, a), 0.0);
+  b.pose[3 * 4] = 0.5f;
+  EXPECT_NEAR(pose_distance(a, b), 0.5, 1e-6);
+  b = a;
+  b.pose[1] = 2.0f;
+  EXPECT_EQ(pose_distance(a, b), 0.0);
+}
+
+TEST(SynthMotion, FingersMoveInTrainingAndTestHandsDiffer) {
+  const SynthMotion m = make_synth_motion(low_body(), low_subject(), 40, 8, 0);
+  // Index and middle fingers curl by most of a radian, the thumb by less.
+  for (auto [j, range] : {std::pair{kLeftHandFirst + 1, 0.8}, std::pair{kRightHandFirst + 4, 0.8},
+                          std::pair{kLeftHandFirst + 13, 0.3}}) {
+    double lo = 1e9, hi = -1e9;
+    for (const SmplxParams& p : m.train) {
+      const double ang = norm(Vec3<double>(p.pose[3 * j], p.pose[3 * j + 1], p.pose[3 * j + 2]));
+      lo = std::min(lo, ang), hi = std::max(hi, ang);
+    }
+    EXPECT_GT(hi - lo, range) << "joint " << j;
+  }
+  // Test hands include shapes the training never has: fingers spread apart.
+  double max_spread_gap = 0;
+  for (const SmplxParams& t : m.test) {
+    double best = 1e9;
+    for (const SmplxParams& r : m.train) {
+      double worst = 0;
+      for (int j = kLeftHandFirst; j < kNumJoints; ++j) {
+        const Mat3<double> d = transpose(joint_rotation(t, j)) * joint_rotation(r, j);
+        worst = std::max(worst, norm(matrix_to_axis_angle(d)));
+      }
+      best = std::min(best, worst);
+    }
+    max_spread_gap = std::max(max_spread_gap, best);
+  }
+  EXPECT_GT(max_spread_gap, 0.2);
+}
+
+TEST(SynthMotion, FeetStayOnTheRestFloor) {
+  const SynthMotion m = make_synth_motion(low_body(), low_subject(), 8, 4, 3);
+  double floor_y = 1e9;
+  for (size_t i = 1; i < low_subject().rest_verts.size(); i += 3) floor_y = std::min(floor_y, double(low_subject().rest_verts[i]));
+  Lbs<float> lbs(low_body());
+  std::vector<float> v(size_t(low_body().num_verts) * 3);
+  std::vector<SmplxParams> all = m.train;
+  all.insert(all.end(), m.test.begin(), m.test.end());
+  for (const SmplxParams& p : all) {
+    lbs.forward(p, v.data(), nullptr, nullptr);
+    double lo = 1e9;
+    for (size_t i = 1; i < v.size(); i += 3) lo = std::min(lo, double(v[i]));
+    EXPECT_NEAR(lo, floor_y, 1e-4);
+  }
+}
+
+TEST(SynthMotion, DeterministicForASeed) {
+  const SynthMotion a = make_synth_motion(low_body(), low_subject(), 10, 5, 4);
+  const SynthMotion b = make_synth_motion(low_body(), low_subject(), 10, 5, 4);
+  const SynthMotion c = make_synth_motion(low_body(), low_subject(), 10, 5, 5);
+  bool differs = false;
+  for (size_t i = 0; i < a.train.size(); ++i) {
+    EXPECT_EQ(a.train[i].pose, b.train[i].pose);
+    EXPECT_EQ(a.train[i].transl, b.train[i].transl);
+    differs |= a.train[i].pose != c.train[i].pose;
+  }
+  for (size_t i = 0; i < a.test.size(); ++i) EXPECT_EQ(a.test[i].pose, b.test[i].pose);
+  EXPECT_TRUE(differs);
+}
+
+TEST(SynthMotion, FitNoiseHasTheRequestedSpreadAndSparesTheEyes) {
+  const SynthMotion m = make_synth_motion(low_body(), low_subject(), 40, 10, 0);
+  std::vector<SmplxParams> truth = m.train;
+  truth.insert(truth.end(), m.test.begin(), m.test.end());
+  EXPECT_EQ(perturb_fits(truth, 0, 1)[3].pose, truth[3].pose);
+  const double sigma = 0.03;
+  const auto noisy = perturb_fits(truth, sigma, 1);
+  const auto again = perturb_fits(truth, sigma, 1);
+  const auto other = perturb_fits(truth, sigma, 2);
+  double ss = 0;
+  int n = 0;
+  for (size_t f = 0; f < truth.size(); ++f) {
+    EXPECT_EQ(noisy[f].pose, again[f].pose);
+    EXPECT_NE(noisy[f].pose, other[f].pose);
+    for (int j = 0; j < kNumJoints; ++j)
+      for (int c = 0; c < 3; ++c) {
+        const double d = double(noisy[f].pose[3 * j + c]) - truth[f].pose[3 * j + c];
+        if (j == kLeftEye || j == kRightEye) {
+          EXPECT_EQ(d, 0.0);
+        } else {
+          ss += d * d, ++n;
+        }
+      }
+    for (int c = 0; c < 3; ++c) ss += std::pow(double(noisy[f].transl[c]) - truth[f].transl[c], 2), ++n;
+  }
+  // n = 8100 samples: the standard deviation estimate is within ~1% (1 sigma) of sigma.
+  EXPECT_NEAR(std::sqrt(ss / n), sigma, 0.06 * sigma);
+  expect_error([&] { perturb_fits(truth, -1, 0); }, "--fit-noise");
+  expect_error([&] { perturb_fits(truth, NAN, 0); }, "--fit-noise");
+}
+
+// ---------------------------------------------------------------------------------------
+// Rendering
+
+struct Scene {
+  SynthMotion motion = make_synth_motion(low_body(), low_subject(), 8, 4, 0);
+  SynthRenderer renderer{low_body(), low_subject()};
+  Camera cam;
+  explicit Scene(int size = 64) {
+    std::vector<const SmplxParams*> all;
+    for (const auto& p : motion.train) all.push_back(&p);
+    for (const auto& p : motion.test) all.push_back(&p);
+    cam = synth_camera(renderer, all, size);
+  }
+};
+
+int count(const Image& m, float thr = 0.0f) {
+  int n = 0;
+  for (float x : m.data) n += x > thr;
+  return n;
+}
+
+TEST(SynthRender, MasksAreSoftNonEmptyAndConsistentWithTheImages) {
+  Scene sc;
+  Image rgb, mask;
+  bool soft = false;
+  std::vector<SmplxParams> all = sc.motion.train;
+  all.insert(all.end(), sc.motion.test.begin(), sc.motion.test.end());
+  for (const SmplxParams& p : all) {
+    sc.renderer.render(sc.cam, p, 3, kSynthAll, rgb, mask);
+    ASSERT_EQ(rgb.width, 64);
+    ASSERT_EQ(mask.channels, 1);
+    EXPECT_GT(count(mask), 64 * 64 / 50);
+    for (int i = 0; i < 64 * 64; ++i) {
+      const float m = mask.data[i];
+      ASSERT_TRUE(m >= 0 && m <= 1);
+      soft |= (m > 0 && m < 1);
+      for (int c = 0; c < 3; ++c) {
+        const float v = rgb.data[3 * i + c];
+        ASSERT_TRUE(std::isfinite(v) && v >= 0 && v <= m + 1e-6f) << i;  // colour <= coverage: black outside
+      }
+    }
+    // Full body in frame: nothing touches the border.
+    for (int k = 0; k < 64; ++k) {
+      EXPECT_EQ(mask.at(k, 0, 0), 0.0f);
+      EXPECT_EQ(mask.at(k, 63, 0), 0.0f);
+      EXPECT_EQ(mask.at(0, k, 0), 0.0f);
+      EXPECT_EQ(mask.at(63, k, 0), 0.0f);
+    }
+  }
+  EXPECT_TRUE(soft) << "supersampled coverage should give fractional edge pixels";
+}
+
+TEST(SynthRender, BodyYUpAppearsUpright) {
+  Scene sc;
+  Lbs<float> lbs(low_body());
+  std::vector<float> v(size_t(low_body().num_verts) * 3), J(kNumJoints * 3);
+  for (const SmplxParams& p : sc.motion.train) {
+    lbs.forward(p, v.data(), J.data(), nullptr);
+    auto row = [&](int j) { return sc.cam.project(sc.cam.to_camera(Vec3f(J[3 * j], J[3 * j + 1], J[3 * j + 2]))).y; };
+    EXPECT_LT(row(15), row(0));  // head above pelvis
+    EXPECT_LT(row(0), row(7));   // pelvis above the ankle
+  }
+  // Frame 0 faces the camera: the subject's left hand (+X) is on the image's right.
+  lbs.forward(sc.motion.train[0], v.data(), J.data(), nullptr);
+  auto col = [&](int j) { return sc.cam.project(sc.cam.to_camera(Vec3f(J[3 * j], J[3 * j + 1], J[3 * j + 2]))).x; };
+  EXPECT_GT(col(20), col(21));
+}
+
+TEST(SynthRender, GarmentsCoverPixelsOutsideTheBodySilhouette) {
+  Scene sc(128);
+  Image rgb, body_mask, mask;
+  // Frame 0 faces the camera; the ponytail shows from the side (a quarter turn).
+  const SmplxParams& front = sc.motion.train[0];
+  const SmplxParams& side = sc.motion.train[2];
+  sc.renderer.render(sc.cam, front, 3, kSynthBody, rgb, body_mask);
+  const int body_px = count(body_mask);
+  // Pixels with coverage where the body alone has none (3 x 3 subsamples per pixel).
+  auto extra = [&](const SmplxParams& p, unsigned parts) {
+    Image bm;
+    sc.renderer.render(sc.cam, p, 3, kSynthBody, rgb, bm);
+    sc.renderer.render(sc.cam, p, 3, kSynthBody | parts, rgb, mask);
+    int more = 0;
+    for (size_t i = 0; i < mask.data.size(); ++i) {
+      EXPECT_GE(mask.data[i], bm.data[i]);  // adding geometry never removes coverage
+      more += mask.data[i] > 0 && bm.data[i] == 0;
+    }
+    return more;
+  };
+  const int all = extra(front, kSynthAll);
+  EXPECT_GT(all, body_px / 20) << "clothed silhouette should be clearly larger than the body's";
+  EXPECT_GT(extra(front, kSynthSkirt), body_px / 40);
+  EXPECT_GT(extra(front, kSynthHair), 0);
+  EXPECT_GT(extra(side, kSynthPonytail), 0);
+  EXPECT_GT(extra(side, kSynthHair), 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// The dataset
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+class SynthDataset : public TempDir {};
+
+TEST_F(SynthDataset, ReadsBackWithMatchingCountsAndConsistentMasks) {
+  SynthOptions o = small_options();
+  o.fit_noise = 0.02;
+  const SynthSummary sum = write_synth_dataset(path("ds"), low_body(), o, true);
+  EXPECT_GE(sum.min_pose_gap, kSynthMinPoseGap);
+  const Dataset ds = read_dataset(path("ds"));
+  ASSERT_EQ(ds.frames.size(), 9u);
+  EXPECT_EQ(ds.indices(Split::train).size(), 6u);
+  EXPECT_EQ(ds.indices(Split::test).size(), 3u);
+  ASSERT_EQ(ds.params_true.size(), 9u);
+  EXPECT_TRUE(ds.is_static_camera());
+  EXPECT_EQ(ds.width, 48);
+  EXPECT_FLOAT_EQ(ds.frames[0].camera.fx, sum.camera.fx);
+  EXPECT_FLOAT_EQ(ds.frames[0].camera.cx, 24.0f);
+  for (size_t i = 0; i < ds.frames.size(); ++i) {
+    const DatasetFrame& f = ds.frames[i];
+    EXPECT_NE(f.params.pose, ds.params_true[i].pose);  // fits carry the noise
+    EXPECT_NE(f.params.transl, ds.params_true[i].transl);
+    int on = 0;
+    for (int p = 0; p < 48 * 48; ++p) {
+      const float m = f.mask.data[p];
+      on += m > 0;
+      if (m == 0) {
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(f.image.data[3 * p + c], 0.0f) << "frame " << i << " pixel " << p;
+      }
+    }
+    EXPECT_GT(on, 48 * 48 / 50);
+  }
+  for (const char* extra : {"contact_sheet.png", "synth_texture.png", "body_model.npz"})
+    EXPECT_TRUE(fs::exists(dir_ / "ds" / extra)) << extra;
+  const Image sheet = read_image(path("ds/contact_sheet.png"));
+  EXPECT_GT(sheet.width, 6 * 48);
+  // Nothing left beside the output.
+  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_EQ(e.path().filename(), "ds");
+}
+
+TEST_F(SynthDataset, DeterministicForASeed) {
+  const SynthOptions o = small_options();
+  write_synth_dataset(path("a"), low_body(), o, false);
+  // The second run on one thread (frames rendered one by one instead of one per thread).
+  const int threads = num_threads();
+  set_num_threads(1);
+  write_synth_dataset(path("b"), low_body(), o, false);
+  set_num_threads(threads);
+  SynthOptions o2 = o;
+  o2.seed = 9;
+  write_synth_dataset(path("c"), low_body(), o2, false);
+  int files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir_ / "a")) {
+    if (!e.is_regular_file()) continue;
+    const fs::path rel = fs::relative(e.path(), dir_ / "a");
+    if (rel.extension() == ".npz") {
+      // Arrays, not bytes: the zip container stores member modification times.
+      const Npz x = Npz::read(e.path().string()), y = Npz::read((dir_ / "b" / rel).string());
+      ASSERT_EQ(x.keys(), y.keys()) << rel;
+      for (const std::string& k : x.keys()) {
+        EXPECT_EQ(x.get(k).shape, y.get(k).shape) << rel << " " << k;
+        EXPECT_EQ(x.get(k).bytes, y.get(k).bytes) << rel << " " << k;
+      }
+    } else {
+      EXPECT_EQ(slurp(e.path()), slurp(dir_ / "b" / rel)) << rel;
+    }
+    ++files;
+  }
+  EXPECT_EQ(files, 9 * 2 + 2 + 1 + 2);  // frames, masks, npz x2, dataset.json, sheet, texture
+  EXPECT_FALSE(fs::exists(dir_ / "a" / "body_model.npz"));
+  EXPECT_NE(slurp(dir_ / "a/images/000001.png"), slurp(dir_ / "c/images/000001.png"));
+}
+
+TEST_F(SynthDataset, ReplacesADatasetButNothingElse) {
+  const SynthOptions o = small_options();
+  write_synth_dataset(path("ds"), low_body(), o, false);
+  SynthOptions o2 = o;
+  o2.train_frames = 4;
+  write_synth_dataset(path("ds"), low_body(), o2, false);  // a dataset may be replaced
+  EXPECT_EQ(read_dataset(path("ds"), LoadPixels::headers).frames.size(), 7u);
+  fs::create_directories(dir_ / "other");
+  std::ofstream(dir_ / "other" / "keep.txt") << "mine";
+  expect_error([&] { write_synth_dataset(path("other"), low_body(), o, false); }, "refusing to replace");
+  EXPECT_EQ(slurp(dir_ / "other" / "keep.txt"), "mine");
+  for (const auto& e : fs::directory_iterator(dir_)) {
+    const std::string n = e.path().filename().string();
+    EXPECT_TRUE(n == "ds" || n == "other") << n;
+  }
+}
+
+TEST(SynthOptionsTest, BadOptionsAreClearErrors) {
+  auto with = [](auto edit) {
+    SynthOptions o;
+    edit(o);
+    return o;
+  };
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 0; })); }, "--size");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.train_frames = 0; })); }, "--frames");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.test_frames = -1; })); }, "--test-frames");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise = -0.1; })); }, "--fit-noise");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise = NAN; })); }, "--fit-noise");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.supersample = 0; })); }, "--supersample");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.texture_size = 3; })); }, "--texture-size");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 4096, o.supersample = 4; })); },
+               "exceeds 12288");
+  EXPECT_NO_THROW(validate_synth_options(SynthOptions{}));
+  expect_error([] { synth_body("/nonexistent/dir/model.npz", BodyResolution::low, 0); }, "/nonexistent/dir/model.npz");
+  // write_synth_dataset validates before touching the disk.
+  const std::string out = (fs::temp_directory_path() / ("haha_synth_bad_" + std::to_string(::getpid()))).string();
+  expect_error([&] { write_synth_dataset(out, low_body(), with([](SynthOptions& o) { o.size = 0; }), false); }, "--size");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
+}  // namespace haha

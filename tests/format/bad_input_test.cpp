@@ -1,0 +1,253 @@
+// Bad .glb input: each case gives one haha::Error naming the file and the problem, never
+// a crash; plus a bounded randomized corruption run (flips, truncations, insertions).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cmath>
+#include <random>
+
+#include "core/error.h"
+#include "format/avatar_pack.h"
+#include "format/avatar_unpack.h"
+#include "format/draco_io.h"
+#include "format/glb.h"
+#include "support/expect_error.h"
+#include "support/format_test_avatar.h"
+
+namespace haha {
+namespace {
+
+using glb::Json;
+
+const char* kName = "bad.glb";
+
+// Expects an Error whose message is one line starting with "bad.glb: " and containing `needle`.
+void expect_error(const std::vector<uint8_t>& bytes, const std::string& needle, const UnpackOptions& opt = {}) {
+  haha::test::expect_error_at(kName, [&] { unpack_avatar(bytes.data(), bytes.size(), kName, opt); }, {needle});
+}
+
+struct Fixture {
+  Avatar avatar = test::make_test_avatar(200);
+  std::vector<uint8_t> lossy = pack_avatar(avatar, PackOptions{});
+  std::vector<uint8_t> lossless = [this] {
+    PackOptions o;
+    o.lossless = true;
+    return pack_avatar(avatar, o);
+  }();
+};
+const Fixture& fx() {
+  static const Fixture f;
+  return f;
+}
+
+// Applies `edit` to the parsed JSON (and BIN) and writes the .glb again.
+template <class F>
+std::vector<uint8_t> edited(const std::vector<uint8_t>& bytes, F edit) {
+  glb::Glb g = glb::parse_glb(bytes.data(), bytes.size(), "fixture");
+  edit(g.json, g.bin);
+  g.json["buffers"][0]["byteLength"] = g.bin.size();
+  return glb::write_glb(g.json, g.bin);
+}
+
+// Appends `stream` as a new bufferView and points the extension's Gaussians at it (with a
+// correct checksum, so the Draco decoder / validation is what must catch the problem).
+std::vector<uint8_t> with_gaussian_stream(const std::vector<uint8_t>& bytes, const std::vector<uint8_t>& stream) {
+  return edited(bytes, [&](Json& j, std::vector<uint8_t>& bin) {
+    while (bin.size() % 4) bin.push_back(0);
+    const size_t off = bin.size();
+    bin.insert(bin.end(), stream.begin(), stream.end());
+    j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", off}, {"byteLength", stream.size()}});
+    auto& g = j["extensions"]["HAHA_gaussian_avatar"]["gaussians"];
+    g["bufferView"] = j["bufferViews"].size() - 1;
+    g["crc32"] = glb::crc32(stream.data(), stream.size());
+  });
+}
+
+// A Gaussian stream laid out like pack's lossless one (raw floats), from explicit arrays.
+std::vector<uint8_t> gaussian_stream(const BoundGaussians& g) {
+  using dracoio::AttrIn;
+  using dracoio::Kind;
+  using dracoio::Type;
+  return dracoio::encode(g.size(),
+                         {{"FACE", Kind::generic, Type::i32, 1, g.face.data(), 0},
+                          {"OFFSET", Kind::generic, Type::f32, 3, g.offset.data(), 0},
+                          {"ROTATION", Kind::generic, Type::f32, 4, g.rotation.data(), 0},
+                          {"SCALE", Kind::generic, Type::f32, 3, g.scale.data(), 0},
+                          {"COLOR", Kind::generic, Type::f32, 3, g.color.data(), 0},
+                          {"OPACITY", Kind::generic, Type::f32, 1, g.opacity.data(), 0}},
+                         nullptr, 0)
+      .bytes;
+}
+
+TEST(FormatBadInput, ValidFixturesLoad) {
+  EXPECT_NO_THROW(unpack_avatar(fx().lossy.data(), fx().lossy.size(), kName));
+  EXPECT_NO_THROW(unpack_avatar(fx().lossless.data(), fx().lossless.size(), kName));
+  // The stream helper itself produces a loadable file when the data is valid.
+  const auto ok = with_gaussian_stream(fx().lossless, gaussian_stream(fx().avatar.gaussians));
+  EXPECT_NO_THROW(unpack_avatar(ok.data(), ok.size(), kName));
+}
+
+TEST(FormatBadInput, EmptyAndNotGlb) {
+  expect_error({}, "shorter than a GLB header");
+  const std::string text = "{\"asset\": {\"version\": \"2.0\"}} this is JSON, not GLB";
+  expect_error(std::vector<uint8_t>(text.begin(), text.end()), "bad magic");
+}
+
+TEST(FormatBadInput, TruncatedAtEveryRegion) {
+  const auto& f = fx().lossy;
+  // Header, inside JSON, inside BIN (Draco mesh, Gaussians, image), one byte short.
+  for (size_t n : {size_t(0), size_t(11), size_t(19), size_t(40), f.size() / 3, f.size() / 2, f.size() - 100, f.size() - 1}) {
+    std::vector<uint8_t> t(f.begin(), f.begin() + long(n));
+    EXPECT_THROW(unpack_avatar(t.data(), t.size(), kName), Error) << n;
+  }
+  std::vector<uint8_t> t(f.begin(), f.end() - 1);
+  expect_error(t, "truncated");
+}
+
+TEST(FormatBadInput, WrongExtensionVersion) {
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 2; }),
+               "unsupported version 2");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = "1"; }),
+               "unsupported version");
+}
+
+TEST(FormatBadInput, MissingExtensionOrUnsupportedRequirement) {
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"].erase("HAHA_gaussian_avatar"); }), "not a HAHA avatar");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensionsRequired"].push_back("KHR_unknown_thing"); }),
+               "KHR_unknown_thing");
+}
+
+TEST(FormatBadInput, ChecksumMismatch) {
+  expect_error(edited(fx().lossy, [](Json& j, std::vector<uint8_t>& bin) {
+                 const auto& bv = j["bufferViews"][j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["bufferView"].get<int>()];
+                 bin[bv["byteOffset"].get<size_t>() + bv["byteLength"].get<size_t>() / 2] ^= 0x40;
+               }),
+               "gaussians: checksum mismatch");
+}
+
+TEST(FormatBadInput, DracoStreamThatDoesNotDecode) {
+  std::vector<uint8_t> junk(300);
+  std::mt19937 rng(5);
+  for (auto& b : junk) b = uint8_t(rng());
+  expect_error(with_gaussian_stream(fx().lossy, junk), "gaussians: not a Draco stream");
+  // A Draco header that is right followed by garbage: the decoder itself must refuse it.
+  BoundGaussians two = fx().avatar.gaussians;
+  std::vector<uint8_t> cut = gaussian_stream(two);
+  for (size_t i = 20; i < cut.size(); ++i) cut[i] = uint8_t(rng());
+  expect_error(with_gaussian_stream(fx().lossless, cut), "gaussians: Draco stream does not decode");
+  // A valid Draco stream of the wrong kind (a mesh where a point cloud belongs).
+  edited(fx().lossy, [](Json&, auto&) {});
+  const auto& f = fx().lossy;
+  glb::Glb g = glb::parse_glb(f.data(), f.size(), "x");
+  const glb::ByteSpan mesh = glb::buffer_view(g, g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"]["bufferView"].get<int>(), "x");
+  expect_error(with_gaussian_stream(f, std::vector<uint8_t>(mesh.data, mesh.data + mesh.size)), "not a point cloud");
+  // A Draco point cloud with a wrong Gaussian count.
+  BoundGaussians fewer = fx().avatar.gaussians;
+  fewer.resize(fewer.size() - 1);
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(fewer)), "points, the file says");
+}
+
+TEST(FormatBadInput, FaceIndexOutOfRange) {
+  BoundGaussians g = fx().avatar.gaussians;
+  g.face[7] = fx().avatar.body.num_faces;  // one past the end
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(g)), "refers to face");
+  g.face[7] = -1;
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(g)), "refers to face -1");
+}
+
+TEST(FormatBadInput, NaNAndInvalidValues) {
+  BoundGaussians g = fx().avatar.gaussians;
+  g.offset[5] = std::nanf("");
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(g)), "gaussian offset: non-finite");
+  g = fx().avatar.gaussians;
+  g.scale[3] = -1.0f;
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(g)), "gaussian scale: non-positive");
+  g = fx().avatar.gaussians;
+  g.opacity[0] = INFINITY;
+  expect_error(with_gaussian_stream(fx().lossless, gaussian_stream(g)), "gaussian opacity: non-finite");
+  // JSON numbers beyond float range (JSON has no NaN literal).
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["subject"]["betas"][0] = 1e300; }),
+               "out of float range");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["faceFrame"]["scaleDivisor"] = -1.0; }),
+               "face_scale_divisor");
+}
+
+TEST(FormatBadInput, InconsistentStructure) {
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["body"]["faceCount"] = 7; }), "faces, the file says");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["bufferViews"][0]["byteLength"] = 1u << 30; }), "outside");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["skins"][0]["joints"].erase(3); }), "55 joints");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"].erase("attributes"); }),
+               "gaussians.attributes: missing");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["images"][0]["mimeType"] = "image/gif"; }), "unsupported mimeType");
+}
+
+// Randomized corruption: every outcome must be success or haha::Error (a crash or any
+// other exception fails the test). Bounded: fixed seed, fixed count.
+void fuzz(const std::vector<uint8_t>& base, int iterations, uint32_t seed, const UnpackOptions& opt,
+          bool only_draco_streams, int* errors) {
+  std::mt19937 rng(seed);
+  glb::Glb g = glb::parse_glb(base.data(), base.size(), "x");
+  const size_t bin_start = base.size() - ((g.bin.size() + 3) / 4 * 4);
+  std::vector<std::pair<size_t, size_t>> streams;  // [begin, end) in file bytes
+  for (int v : {g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"]["bufferView"].get<int>(),
+                g.json["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["bufferView"].get<int>()}) {
+    const auto& bv = g.json["bufferViews"][size_t(v)];
+    streams.push_back({bin_start + bv["byteOffset"].get<size_t>(), bin_start + bv["byteOffset"].get<size_t>() + bv["byteLength"].get<size_t>()});
+  }
+  for (int it = 0; it < iterations; ++it) {
+    std::vector<uint8_t> b = base;
+    const int kind = int(rng() % 4);
+    auto pos = [&]() -> size_t {
+      if (only_draco_streams) {
+        const auto& s = streams[rng() % streams.size()];
+        return s.first + rng() % (s.second - s.first);
+      }
+      return rng() % b.size();
+    };
+    if (kind == 0) {  // flip 1..8 bits
+      const int n = 1 + int(rng() % 8);
+      for (int k = 0; k < n; ++k) b[pos()] ^= uint8_t(1u << (rng() % 8));
+    } else if (kind == 1) {  // random bytes
+      const int n = 1 + int(rng() % 16);
+      for (int k = 0; k < n; ++k) b[pos()] = uint8_t(rng());
+    } else if (kind == 2 && !only_draco_streams) {  // truncate
+      b.resize(rng() % b.size());
+    } else {  // overwrite a run with 0x00 or 0xFF
+      const size_t p = pos(), n = 1 + rng() % 64;
+      const uint8_t v = (rng() & 1) ? 0xFF : 0x00;
+      for (size_t k = p; k < std::min(b.size(), p + n); ++k) b[k] = v;
+    }
+    try {
+      unpack_avatar(b.data(), b.size(), kName, opt);
+    } catch (const Error& e) {
+      ++*errors;
+      if (std::getenv("HAHA_FUZZ_LOG")) std::fprintf(stderr, "%u/%d: %s\n", seed, it, e.what());
+    }
+  }
+}
+
+TEST(FormatBadInput, RandomCorruptionNeverCrashes) {
+  // HAHA_FUZZ_SCALE=k runs k times as many iterations (longer soak runs by hand).
+  const int scale = std::getenv("HAHA_FUZZ_SCALE") ? std::max(1, std::atoi(std::getenv("HAHA_FUZZ_SCALE"))) : 1;
+  const auto t0 = std::chrono::steady_clock::now();
+  int errors = 0;
+  fuzz(fx().lossy, 1500 * scale, 11, UnpackOptions{}, false, &errors);
+  fuzz(fx().lossless, 500 * scale, 12, UnpackOptions{}, false, &errors);
+  // Most corruptions must be detected (checksums, JSON, structure checks).
+  EXPECT_GT(errors, 1500 * scale);
+  // With checksums off the Draco decoder itself meets corrupted streams.
+  int derr = 0;
+  UnpackOptions raw;
+  raw.verify_checksums = false;
+  fuzz(fx().lossy, 1500 * scale, 13, raw, true, &derr);
+  fuzz(fx().lossless, 500 * scale, 14, raw, true, &derr);
+  EXPECT_GT(derr, 0);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  RecordProperty("seconds", std::to_string(secs));
+}
+
+}  // namespace
+}  // namespace haha

@@ -1,0 +1,114 @@
+// An independent glTF loader (tinygltf, with its own Draco decoding) reads the packed file
+// as a plain skinned, textured avatar: 55 joints with identity rest rotations, inverse bind
+// matrices that undo the joint translations, and the body's faces in the body's order.
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_ENABLE_DRACO
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define STB_IMAGE_IMPLEMENTATION
+#include <gtest/gtest.h>
+#include <tiny_gltf.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "body/face_frames.h"
+#include "format/avatar_pack.h"
+#include "support/format_test_avatar.h"
+
+namespace haha {
+namespace {
+
+template <class T>
+std::vector<T> read_accessor(const tinygltf::Model& m, int index, int comps) {
+  const tinygltf::Accessor& acc = m.accessors[size_t(index)];
+  const tinygltf::BufferView& bv = m.bufferViews[size_t(acc.bufferView)];
+  const tinygltf::Buffer& buf = m.buffers[size_t(bv.buffer)];
+  std::vector<T> out(acc.count * size_t(comps));
+  std::memcpy(out.data(), buf.data.data() + bv.byteOffset + acc.byteOffset, out.size() * sizeof(T));
+  return out;
+}
+
+TEST(FormatInterop, TinyGltfLoadsASkinnedTexturedMeshInBodyFaceOrder) {
+  const Avatar a = test::make_test_avatar(50, 2, 16, 16);
+  PackOptions opt;
+  opt.texture_codec = TextureCodec::png;  // stb_image decodes png/jpg (not webp)
+  const std::vector<uint8_t> bytes = pack_avatar(a, opt);
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model m;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn, bytes.data(), unsigned(bytes.size()))) << err;
+  EXPECT_TRUE(err.empty()) << err;
+  ASSERT_EQ(m.skins.size(), 1u);
+  ASSERT_EQ(m.skins[0].joints.size(), 55u);
+  ASSERT_EQ(m.meshes.size(), 1u);
+  ASSERT_EQ(m.images.size(), 1u);
+  EXPECT_EQ(m.images[0].width, 16);
+  EXPECT_EQ(m.images[0].height, 16);
+
+  // Joint j's world rest transform is the sum of translations along its chain (rotations
+  // identity); its inverse bind matrix must be the inverse: translation by -world.
+  const std::vector<float> ibm = read_accessor<float>(m, m.skins[0].inverseBindMatrices, 16);
+  std::vector<double> world(55 * 3, 0.0);
+  for (int j = 0; j < 55; ++j) {
+    const tinygltf::Node& n = m.nodes[size_t(m.skins[0].joints[size_t(j)])];
+    EXPECT_TRUE(n.rotation.empty() || (n.rotation[3] == 1 && n.rotation[0] == 0));
+    const int p = a.body.parents[size_t(j)];
+    for (int k = 0; k < 3; ++k) world[size_t(j) * 3 + k] = n.translation[size_t(k)] + (p >= 0 ? world[size_t(p) * 3 + k] : 0.0);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(ibm[size_t(j) * 16 + 12 + k], -world[size_t(j) * 3 + k], 1e-6);
+  }
+
+  // Decoded by tinygltf's Draco path: corner c of face f sits at the body's vertex
+  // faces[f][c] in the rest shape (16-bit positions).
+  const tinygltf::Primitive& prim = m.meshes[0].primitives[0];
+  const std::vector<float> pos = read_accessor<float>(m, prim.attributes.at("POSITION"), 3);
+  const std::vector<uint16_t> idx = read_accessor<uint16_t>(m, prim.indices, 1);
+  ASSERT_EQ(idx.size(), a.body.faces.size());
+  const std::vector<float> rest = baked_rest_vertices(a);
+  for (size_t c = 0; c < idx.size(); ++c)
+    for (int k = 0; k < 3; ++k)
+      ASSERT_NEAR(pos[size_t(idx[c]) * 3 + k], rest[size_t(a.body.faces[c]) * 3 + k], 5e-5) << "corner " << c;
+  EXPECT_TRUE(prim.attributes.count("JOINTS_0") && prim.attributes.count("WEIGHTS_0") && prim.attributes.count("TEXCOORD_0"));
+}
+
+TEST(FormatInterop, KhrGaussianSplattingPrimitiveHoldsTheRestPoseGaussians) {
+  const Avatar a = test::make_test_avatar(80, 2, 16, 16);
+  PackOptions opt;
+  opt.texture_codec = TextureCodec::png;
+  opt.khr_gaussian_splatting = true;
+  const std::vector<uint8_t> bytes = pack_avatar(a, opt);
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model m;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn, bytes.data(), unsigned(bytes.size()))) << err;
+  ASSERT_EQ(m.meshes.size(), 2u);
+  const tinygltf::Primitive& p = m.meshes[1].primitives[0];
+  EXPECT_EQ(p.mode, TINYGLTF_MODE_POINTS);
+  ASSERT_TRUE(p.extensions.count("KHR_gaussian_splatting"));
+  EXPECT_EQ(p.extensions.at("KHR_gaussian_splatting").Get("kernel").Get<std::string>(), "ellipse");
+  EXPECT_EQ(p.extensions.at("KHR_gaussian_splatting").Get("colorSpace").Get<std::string>(), "srgb_rec709_display");
+  const std::vector<float> pos = read_accessor<float>(m, p.attributes.at("POSITION"), 3);
+  const std::vector<float> rot = read_accessor<float>(m, p.attributes.at("KHR_gaussian_splatting:ROTATION"), 4);
+  const std::vector<float> scl = read_accessor<float>(m, p.attributes.at("KHR_gaussian_splatting:SCALE"), 3);
+  const std::vector<float> op = read_accessor<float>(m, p.attributes.at("KHR_gaussian_splatting:OPACITY"), 1);
+  const std::vector<float> sh = read_accessor<float>(m, p.attributes.at("KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"), 3);
+  // Expected: the face frames of the baked rest mesh applied to the local Gaussians.
+  const int N = a.gaussians.size();
+  std::vector<float> mean(size_t(N) * 3), quat(size_t(N) * 4), scale(size_t(N) * 3);
+  const std::vector<float> rest = baked_rest_vertices(a);
+  pose_gaussians(rest.data(), a.body, a.face_scale_divisor, a.gaussians, mean.data(), quat.data(), scale.data());
+  for (int i = 0; i < N; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(pos[size_t(i) * 3 + k], mean[size_t(i) * 3 + k]);
+      ASSERT_EQ(scl[size_t(i) * 3 + k], scale[size_t(i) * 3 + k]);  // linear, not log
+      ASSERT_NEAR(sh[size_t(i) * 3 + k] * 0.2820948f + 0.5f, a.gaussians.color[size_t(i) * 3 + k], 1e-6f);
+    }
+    const float* q = &quat[size_t(i) * 4];
+    const float n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(rot[size_t(i) * 4 + k], q[k + 1] / n, 1e-6f);  // x, y, z
+    ASSERT_NEAR(rot[size_t(i) * 4 + 3], q[0] / n, 1e-6f);                                   // w last
+    ASSERT_EQ(op[size_t(i)], a.gaussians.opacity[size_t(i)]);
+  }
+}
+
+}  // namespace
+}  // namespace haha

@@ -1,0 +1,237 @@
+// Pack -> unpack round trips of the avatar .glb: --lossless is bit-exact, the default is
+// within the stated quantization bounds, and Draco keeps face and point order.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "core/error.h"
+#include "format/avatar_pack.h"
+#include "format/avatar_unpack.h"
+#include "format/draco_io.h"
+#include "format/glb.h"
+#include "support/format_test_avatar.h"
+
+namespace haha {
+namespace {
+
+template <class T>
+bool bit_equal(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+// Per-corner UV values of a body (vt[ft[c]]), so different vt layouts compare by content.
+std::vector<float> corner_uvs(const BodyModel& b) {
+  std::vector<float> out;
+  for (int32_t t : b.ft) out.push_back(b.vt[size_t(t) * 2]), out.push_back(b.vt[size_t(t) * 2 + 1]);
+  return out;
+}
+
+TEST(FormatRoundTrip, LosslessRestoresEveryParameterBitExact) {
+  const Avatar a = test::make_test_avatar();
+  PackOptions opt;
+  opt.lossless = true;
+  opt.pose_correctives = true;
+  const std::vector<uint8_t> glb = pack_avatar(a, opt);
+  const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+  const Avatar& b = u.avatar;
+  EXPECT_TRUE(bit_equal(a.betas, b.betas));
+  EXPECT_TRUE(bit_equal(a.expression, b.expression));
+  EXPECT_EQ(std::memcmp(&a.face_scale_divisor, &b.face_scale_divisor, sizeof(float)), 0);
+  EXPECT_EQ(a.texture.width, b.texture.width);
+  EXPECT_EQ(a.texture.height, b.texture.height);
+  EXPECT_TRUE(bit_equal(a.texture.rgb, b.texture.rgb));
+  EXPECT_TRUE(bit_equal(a.gaussians.face, b.gaussians.face));
+  EXPECT_TRUE(bit_equal(a.gaussians.offset, b.gaussians.offset));
+  EXPECT_TRUE(bit_equal(a.gaussians.rotation, b.gaussians.rotation));
+  EXPECT_TRUE(bit_equal(a.gaussians.scale, b.gaussians.scale));
+  EXPECT_TRUE(bit_equal(a.gaussians.color, b.gaussians.color));
+  EXPECT_TRUE(bit_equal(a.gaussians.opacity, b.gaussians.opacity));
+  // Body: the rest shape with betas/expression baked, everything else as given.
+  EXPECT_EQ(b.body.num_verts, a.body.num_verts);
+  EXPECT_EQ(b.body.num_faces, a.body.num_faces);
+  EXPECT_TRUE(bit_equal(baked_rest_vertices(a), b.body.v_template));
+  EXPECT_EQ(a.body.faces, b.body.faces);
+  EXPECT_EQ(a.body.parents, b.body.parents);
+  EXPECT_TRUE(bit_equal(a.body.weights, b.body.weights));
+  EXPECT_TRUE(bit_equal(a.body.j_regressor, b.body.j_regressor));
+  EXPECT_TRUE(bit_equal(a.body.posedirs, b.body.posedirs));
+  EXPECT_TRUE(bit_equal(corner_uvs(a.body), corner_uvs(b.body)));
+  EXPECT_EQ(b.body.num_shape, 0);
+  EXPECT_TRUE(b.body.shapedirs.empty());
+  EXPECT_TRUE(u.info.texture_exact);
+  EXPECT_EQ(u.info.pose_correctives, "float32");
+  // Packing the unpacked avatar again gives the same file (the shape is already baked).
+  EXPECT_EQ(pack_avatar(b, opt), glb);
+}
+
+TEST(FormatRoundTrip, DefaultPackIsWithinQuantizationBounds) {
+  const Avatar a = test::make_test_avatar(2000);
+  PackOptions opt;  // defaults, but a lossless 8-bit texture for a tight texture bound
+  opt.texture_codec = TextureCodec::png;
+  PackedSizes sz;
+  const std::vector<uint8_t> glb = pack_avatar(a, opt, &sz);
+  const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+  // Lossy packs store the Gaussians sorted by face, stably: compare against that order.
+  std::vector<int> order(size_t(a.gaussians.size()));
+  for (size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return a.gaussians.face[size_t(x)] < a.gaussians.face[size_t(y)]; });
+  BoundGaussians g;
+  g.resize(a.gaussians.size());
+  for (int i = 0; i < g.size(); ++i) {
+    const size_t o = size_t(order[size_t(i)]);
+    g.face[size_t(i)] = a.gaussians.face[o];
+    g.opacity[size_t(i)] = a.gaussians.opacity[o];
+    for (int k = 0; k < 3; ++k) {
+      g.offset[size_t(i) * 3 + k] = a.gaussians.offset[o * 3 + k];
+      g.scale[size_t(i) * 3 + k] = a.gaussians.scale[o * 3 + k];
+      g.color[size_t(i) * 3 + k] = a.gaussians.color[o * 3 + k];
+    }
+    for (int k = 0; k < 4; ++k) g.rotation[size_t(i) * 4 + k] = a.gaussians.rotation[o * 4 + k];
+  }
+  const BoundGaussians& h = u.avatar.gaussians;
+  ASSERT_EQ(g.size(), h.size());
+  EXPECT_EQ(u.info.gaussian_order, "face");
+  EXPECT_EQ(g.face, h.face);  // integers: exact
+  const GaussianBits bits;
+  // Draco quantizes an attribute over its largest per-component extent R with 2^b - 1
+  // steps: rounding error <= R / (2^b - 1) / 2 per component (+ float slack).
+  auto range = [](const std::vector<float>& v, int comps) {
+    float r = 0;
+    for (int c = 0; c < comps; ++c) {
+      float lo = INFINITY, hi = -INFINITY;
+      for (size_t i = c; i < v.size(); i += comps) lo = std::min(lo, v[i]), hi = std::max(hi, v[i]);
+      r = std::max(r, hi - lo);
+    }
+    return r;
+  };
+  auto step = [](float r, int b) { return r / float((1 << b) - 1); };
+  const float off_tol = 0.5f * step(range(g.offset, 3), bits.offset) * 1.001f + 1e-6f;
+  for (size_t i = 0; i < g.offset.size(); ++i) ASSERT_NEAR(g.offset[i], h.offset[i], off_tol) << i;
+  const float col_tol = 0.5f * step(range(g.color, 3), bits.color) * 1.001f + 1e-6f;
+  for (size_t i = 0; i < g.color.size(); ++i) ASSERT_NEAR(g.color[i], h.color[i], col_tol) << i;
+  const float op_tol = 0.5f * step(range(g.opacity, 1), bits.opacity) * 1.001f + 1e-6f;
+  for (size_t i = 0; i < g.opacity.size(); ++i) ASSERT_NEAR(g.opacity[i], h.opacity[i], op_tol) << i;
+  // log(scale) quantized: relative error <= exp(step / 2) - 1.
+  std::vector<float> logs(g.scale.size());
+  for (size_t i = 0; i < logs.size(); ++i) logs[i] = std::log(g.scale[i]);
+  const float rel = std::exp(0.5f * step(range(logs, 3), bits.scale) * 1.001f) - 1 + 1e-6f;
+  for (size_t i = 0; i < g.scale.size(); ++i) ASSERT_NEAR(h.scale[i] / g.scale[i], 1.0f, rel) << i;
+  // Rotation, "smallest three": the three stored components (|c| <= 1/sqrt 2, range R <=
+  // sqrt 2) within half a step each; the largest (>= 1/2) rebuilt from them moves by at most
+  // sum |c_i| |dc_i| / (1/2) <= 1.5 step. So |q - q'| <= sqrt(3/4 + 9/4) step < 2 step, up
+  // to the sign of q.
+  const float rot_tol = 2.0f * step(std::sqrt(2.0f), bits.rotation) * 1.001f + 1e-6f;
+  for (int i = 0; i < g.size(); ++i) {
+    const float* p = &g.rotation[size_t(i) * 4];
+    const float* q = &h.rotation[size_t(i) * 4];
+    double dp = 0, dm = 0;
+    for (int k = 0; k < 4; ++k) dp += (p[k] - q[k]) * (p[k] - q[k]), dm += (p[k] + q[k]) * (p[k] + q[k]);
+    ASSERT_LE(std::sqrt(std::min(dp, dm)), rot_tol) << i;
+  }
+  // Texture: 8-bit PNG, error <= half a level.
+  ASSERT_EQ(u.avatar.texture.rgb.size(), a.texture.rgb.size());
+  for (size_t i = 0; i < a.texture.rgb.size(); ++i) ASSERT_NEAR(a.texture.rgb[i], u.avatar.texture.rgb[i], 0.5f / 255 + 1e-6f);
+  // Body: positions and UVs within their quantization steps.
+  const std::vector<float> rest = baked_rest_vertices(a);
+  const float pos_tol = 0.5f * step(range(rest, 3), MeshBits{}.position) * 1.01f + 1e-6f;
+  for (size_t i = 0; i < rest.size(); ++i) ASSERT_NEAR(rest[i], u.avatar.body.v_template[i], pos_tol) << i;
+  const std::vector<float> uva = corner_uvs(a.body), uvb = corner_uvs(u.avatar.body);
+  ASSERT_EQ(uva.size(), uvb.size());
+  const float uv_tol = 0.5f * step(range(a.body.vt, 2), MeshBits{}.texcoord) * 1.01f + 1e-6f;
+  for (size_t i = 0; i < uva.size(); ++i) ASSERT_NEAR(uva[i], uvb[i], uv_tol) << i;
+  EXPECT_EQ(a.body.faces, u.avatar.body.faces);
+  // Weights: renormalised after 10-bit quantization; all influences kept (test weights >= 1e-4).
+  for (size_t i = 0; i < a.body.weights.size(); ++i) ASSERT_NEAR(a.body.weights[i], u.avatar.body.weights[i], 2e-3f) << i;
+  EXPECT_EQ(sz.skin_sets, 2);  // up to 6 influences per vertex: two JOINTS/WEIGHTS sets
+  EXPECT_EQ(sz.max_influences, u.info.sizes.max_influences);
+  EXPECT_TRUE(u.avatar.body.posedirs.empty());  // not embedded by default
+  EXPECT_FALSE(u.info.texture_exact);
+}
+
+TEST(FormatRoundTrip, PoseCorrectivesInt16WithinHalfStep) {
+  const Avatar a = test::make_test_avatar(50);
+  PackOptions opt;
+  opt.pose_correctives = true;
+  const std::vector<uint8_t> glb = pack_avatar(a, opt);
+  const Avatar b = unpack_avatar(glb.data(), glb.size(), "mem.glb").avatar;
+  ASSERT_EQ(a.body.posedirs.size(), b.body.posedirs.size());
+  // Per feature scale = max|x| / 32767; rounding error <= scale / 2 <= 0.001 / 32767 / 2.
+  for (size_t i = 0; i < a.body.posedirs.size(); ++i) ASSERT_NEAR(a.body.posedirs[i], b.body.posedirs[i], 0.001f / 32767 * 0.51f);
+}
+
+TEST(FormatRoundTrip, DracoSequentialKeepsFaceAndPointOrder) {
+  // Faces in an order edgebreaker would not keep (reversed strips, a degenerate face, a
+  // face repeating a vertex set), points that are exact duplicates (no dedup allowed).
+  std::vector<float> pos = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 0, 2, 2, 2};
+  std::vector<int32_t> faces = {3, 2, 1, 0, 1, 2, 4, 5, 3, 5, 5, 5, 1, 2, 3, 2, 1, 0};
+  std::vector<int32_t> ids = {10, 11, 12, 13, 14, 15};
+  std::vector<dracoio::AttrIn> at = {{"POSITION", dracoio::Kind::position, dracoio::Type::f32, 3, pos.data(), 0},
+                                     {"ID", dracoio::Kind::generic, dracoio::Type::i32, 1, ids.data(), 0}};
+  const dracoio::Encoded e = dracoio::encode(6, at, faces.data(), 6);
+  dracoio::Decoded d(e.bytes.data(), e.bytes.size(), true, "test", "mesh");
+  EXPECT_EQ(d.num_points(), 6);
+  EXPECT_EQ(d.faces(), faces);
+  EXPECT_EQ(d.floats(e.unique_ids[0], 3, "POSITION"), pos);
+  const std::vector<int64_t> got = d.ints(e.unique_ids[1], 1, "ID");
+  EXPECT_EQ(std::vector<int64_t>(ids.begin(), ids.end()), got);
+
+  // Point cloud: a decreasing integer sequence and floats come back in input order.
+  std::vector<int32_t> seq(1000);
+  std::vector<float> val(1000);
+  for (int i = 0; i < 1000; ++i) seq[size_t(i)] = 999 - (i * 7919) % 1000, val[size_t(i)] = float(seq[size_t(i)]) * 0.5f;
+  const dracoio::Encoded pe = dracoio::encode(1000, {{"S", dracoio::Kind::generic, dracoio::Type::i32, 1, seq.data(), 0},
+                                                     {"V", dracoio::Kind::generic, dracoio::Type::f32, 1, val.data(), 12}},
+                                              nullptr, 0);
+  dracoio::Decoded pd(pe.bytes.data(), pe.bytes.size(), false, "test", "points");
+  const std::vector<int64_t> s2 = pd.ints(pe.unique_ids[0], 1, "S");
+  const std::vector<float> v2 = pd.floats(pe.unique_ids[1], 1, "V");
+  for (int i = 0; i < 1000; ++i) {
+    ASSERT_EQ(s2[size_t(i)], seq[size_t(i)]);
+    ASSERT_NEAR(v2[size_t(i)], val[size_t(i)], 499.5f / 4095 * 0.51f);
+  }
+}
+
+TEST(FormatRoundTrip, PackedMeshKeepsBodyFaceOrderInTheGltf) {
+  // The glTF's own Draco stream decodes to the body's faces in the body's order (through
+  // the BODY_VERTEX map), including the degenerate last face of the test body.
+  const Avatar a = test::make_test_avatar(10);
+  const std::vector<uint8_t> bytes = pack_avatar(a, PackOptions{});
+  const glb::Glb g = glb::parse_glb(bytes.data(), bytes.size(), "mem");
+  const auto& kd = g.json["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"];
+  const glb::ByteSpan s = glb::buffer_view(g, kd["bufferView"].get<int>(), "mem");
+  dracoio::Decoded d(s.data, s.size, true, "mem", "mesh");
+  const auto map = d.ints(g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"]["attributes"]["BODY_VERTEX"].get<int>(), 1, "BV");
+  const std::vector<int32_t> f = d.faces();
+  ASSERT_EQ(f.size(), a.body.faces.size());
+  for (size_t c = 0; c < f.size(); ++c) ASSERT_EQ(map[size_t(f[c])], a.body.faces[c]) << "corner " << c;
+  // The indices accessor announces exactly F * 3 indices.
+  EXPECT_EQ(g.json["accessors"][g.json["meshes"][0]["primitives"][0]["indices"].get<int>()]["count"].get<int>(), a.body.num_faces * 3);
+}
+
+TEST(FormatRoundTrip, TextureOptions) {
+  const Avatar a = test::make_test_avatar(20);
+  for (TextureCodec c : {TextureCodec::png, TextureCodec::jpg, TextureCodec::webp}) {
+    PackOptions opt;
+    opt.texture_codec = c;
+    opt.texture_size = 16;
+    const std::vector<uint8_t> glb = pack_avatar(a, opt);
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+    EXPECT_EQ(u.avatar.texture.width, 16);
+    EXPECT_EQ(u.avatar.texture.height, 16);
+    EXPECT_EQ(u.info.texture_mime, texture_mime(c));
+    // The resampled texture keeps the mean colour (box filter) up to codec error.
+    double m0 = 0, m1 = 0;
+    for (float x : a.texture.rgb) m0 += x;
+    for (float x : u.avatar.texture.rgb) m1 += x;
+    EXPECT_NEAR(m0 / a.texture.rgb.size(), m1 / u.avatar.texture.rgb.size(), 0.02);
+  }
+  PackOptions bad;
+  bad.lossless = true;
+  bad.texture_size = 16;
+  EXPECT_THROW(pack_avatar(a, bad), Error);
+}
+
+}  // namespace
+}  // namespace haha

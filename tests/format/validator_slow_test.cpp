@@ -1,0 +1,156 @@
+// Every .glb the packer writes passes the Khronos glTF validator (npm gltf-validator,
+// installed project-locally: `npm ci --prefix tools/validator`) with zero errors, and its
+// HAHA_gaussian_avatar object matches format/haha_avatar.schema.json (when Python's
+// jsonschema is installed). Skips (GTEST_SKIP, with the reason) when node or the validator
+// is missing.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "format/avatar_pack.h"
+#include "support/format_realistic_avatar.h"
+#include "support/format_test_avatar.h"
+
+namespace haha {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kRepo = fs::path(__FILE__).parent_path().parent_path().parent_path();
+
+std::string quote(const fs::path& p) { return "'" + p.string() + "'"; }
+
+bool validator_available(std::string* why) {
+  if (std::system("node --version > /dev/null 2>&1") != 0) {
+    *why = "node is not installed";
+    return false;
+  }
+  if (!fs::exists(kRepo / "tools/validator/node_modules/gltf-validator")) {
+    *why = "gltf-validator is not installed (run: npm ci --prefix tools/validator)";
+    return false;
+  }
+  return true;
+}
+
+struct Report {
+  int exit_code = -1;
+  nlohmann::json json;
+};
+
+Report validate(const fs::path& glb) {
+  const fs::path out = glb.string() + ".report.json";
+  const std::string cmd = "node " + quote(kRepo / "tools/validator/validate.js") + " " + quote(glb) + " > " + quote(out);
+  Report r;
+  r.exit_code = WEXITSTATUS(std::system(cmd.c_str()));
+  std::ifstream f(out);
+  r.json = nlohmann::json::parse(f, nullptr, false);
+  return r;
+}
+
+class FormatValidator : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (!validator_available(&why)) GTEST_SKIP() << "glTF validator not run: " << why;
+    dir_ = fs::temp_directory_path() / ("haha-validator-" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
+  fs::path write(const std::string& name, const Avatar& a, const PackOptions& o) {
+    const fs::path p = dir_ / name;
+    write_avatar_glb(a, p.string(), o);
+    return p;
+  }
+  fs::path dir_;
+};
+
+void expect_no_errors(const fs::path& p, int faces) {
+  const Report r = validate(p);
+  ASSERT_TRUE(r.json.is_object()) << p << ": no validator report";
+  const auto& issues = r.json["issues"];
+  EXPECT_EQ(issues["numErrors"].get<int>(), 0) << p << ": " << issues.dump(1);
+  EXPECT_EQ(r.exit_code, 0);
+  // It really looked at our content: one skinned, textured mesh with all the faces.
+  const auto& info = r.json["info"];
+  EXPECT_TRUE(info.value("hasSkins", false)) << info.dump(1);
+  EXPECT_TRUE(info.value("hasTextures", false)) << info.dump(1);
+  EXPECT_EQ(info.value("totalTriangleCount", -1), faces) << info.dump(1);
+}
+
+TEST_F(FormatValidator, EveryPackVariantHasZeroErrors) {
+  const Avatar a = test::make_test_avatar(200, 2, 64, 64);
+  const int F = a.body.num_faces;
+  expect_no_errors(write("default.glb", a, PackOptions{}), F);
+  PackOptions lossless;
+  lossless.lossless = true;
+  lossless.pose_correctives = true;
+  expect_no_errors(write("lossless.glb", a, lossless), F);
+  PackOptions jpg;
+  jpg.texture_codec = TextureCodec::jpg;
+  jpg.pose_correctives = true;
+  expect_no_errors(write("jpg.glb", a, jpg), F);
+  PackOptions webp;
+  webp.texture_codec = TextureCodec::webp;
+  webp.texture_size = 32;
+  expect_no_errors(write("webp.glb", a, webp), F);
+}
+
+TEST_F(FormatValidator, RealisticAvatarHasZeroErrors) {
+  const Avatar a = test::make_realistic_avatar(3000, 256);
+  expect_no_errors(write("realistic.glb", a, PackOptions{}), a.body.num_faces);
+}
+
+TEST_F(FormatValidator, SplatPrimitiveOnlyTripsTheValidatorsUnknownAttributeNames) {
+  // gltf-validator 2.0.0-dev.3.10 predates KHR_gaussian_splatting and reports its attribute
+  // names as invalid; nothing else may be wrong with the file.
+  PackOptions o;
+  o.khr_gaussian_splatting = true;
+  const Report r = validate(write("splats.glb", test::make_test_avatar(100), o));
+  ASSERT_TRUE(r.json.is_object());
+  int other = 0, names = 0;
+  for (const auto& m : r.json["issues"]["messages"]) {
+    if (m["severity"].get<int>() != 0) continue;
+    const std::string code = m["code"], ptr = m.value("pointer", "");
+    if (code == "MESH_PRIMITIVE_INVALID_ATTRIBUTE" && ptr.find("KHR_gaussian_splatting:") != std::string::npos) {
+      ++names;
+    } else {
+      ++other;
+      ADD_FAILURE() << m.dump();
+    }
+  }
+  EXPECT_EQ(names, 4);  // ROTATION, SCALE, OPACITY, SH_DEGREE_0_COEF_0
+  EXPECT_EQ(other, 0);
+}
+
+TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
+  if (std::system("python3 -c 'import jsonschema' > /dev/null 2>&1") != 0) GTEST_SKIP() << "python3 jsonschema not installed";
+  PackOptions o;
+  o.lossless = true;
+  o.pose_correctives = true;
+  o.khr_gaussian_splatting = true;
+  const fs::path p = write("schema.glb", test::make_test_avatar(50), o);
+  const fs::path q = write("schema_default.glb", test::make_test_avatar(50), PackOptions{});
+  const fs::path script = dir_ / "check.py";
+  std::ofstream(script) << "import json, struct, sys, jsonschema\n"
+                           "schema = json.load(open(sys.argv[1]))\n"
+                           "for f in sys.argv[2:]:\n"
+                           "    b = open(f, 'rb').read()\n"
+                           "    n = struct.unpack('<I', b[12:16])[0]\n"
+                           "    jsonschema.validate(json.loads(b[20:20 + n])['extensions']['HAHA_gaussian_avatar'], schema)\n";
+  const std::string cmd = "python3 " + quote(script) + " " + quote(kRepo / "format/haha_avatar.schema.json") + " " +
+                          quote(p) + " " + quote(q);
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+}
+
+}  // namespace
+}  // namespace haha

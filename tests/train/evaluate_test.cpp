@@ -1,0 +1,113 @@
+// Evaluation: metrics of the stage-table variants, test-time pose optimisation, storage,
+// body regions.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "train/evaluate.h"
+#include "support/train_test_scene.h"
+
+namespace haha {
+namespace {
+
+using test::scene_body;
+using test::scene_frames;
+using test::scene_truth;
+
+TEST(Evaluate, TheRenderingAvatarScoresPerfectlyAndLayersMatter) {
+  const Avatar a = scene_truth();
+  const std::vector<TrainFrame> f = scene_frames(a, 3);
+  EvalOptions o;
+  o.tto_steps = 0;
+  o.premultiplied = true;
+  o.keep_images = 1;
+  const VariantEval both = evaluate_variant({"haha", &a, true, true}, f, o);
+  const VariantEval mesh = evaluate_variant({"mesh", &a, true, false}, f, o);
+  ASSERT_EQ(both.frames.size(), 3u);
+  EXPECT_GT(both.psnr, 60.0);  // same renderer, same pose: equal images (PSNR may be +inf)
+  EXPECT_NEAR(both.ssim, 1.0, 1e-6);
+  EXPECT_LT(mesh.psnr, 40.0);  // the "hair" Gaussians are missing
+  EXPECT_LT(mesh.ssim, both.ssim);
+  EXPECT_EQ(both.num_gaussians, a.gaussians.size());
+  EXPECT_EQ(mesh.num_gaussians, 0);
+  EXPECT_LT(both.lpips, 0.0);  // no LPIPS network: unavailable
+  EXPECT_EQ(both.frames[0].image.size(), size_t(40 * 40 * 3));
+  EXPECT_TRUE(both.frames[1].image.empty());  // only keep_images frames keep pictures
+  EXPECT_GT(both.render_ms, 0.0);
+}
+
+TEST(Evaluate, TestTimePoseOptimisationRecoversAShiftedPose) {
+  const Avatar a = scene_truth();
+  std::vector<TrainFrame> f = scene_frames(a, 1);
+  for (TrainFrame& x : f) {
+    x.params.transl[0] += 0.02f;
+    x.params.transl[1] -= 0.01f;
+  }
+  EvalOptions o;
+  o.premultiplied = true;
+  o.tto_steps = 0;
+  const VariantEval before = evaluate_variant({"haha", &a, true, true}, f, o);
+  o.tto_steps = 30;
+  o.lr_pose = 1e-3;
+  const VariantEval after = evaluate_variant({"haha", &a, true, true}, f, o);
+  EXPECT_GT(after.psnr, before.psnr + 2.0);  // measured: +3.4 dB
+  for (const FrameEval& fe : after.frames) EXPECT_LT(fe.tto_loss_end, fe.tto_loss_start);
+}
+
+TEST(Evaluate, StorageCountsGaussiansAndTexture) {
+  const Avatar a = scene_truth(32);
+  const int64_t n = a.gaussians.size();
+  EXPECT_EQ(storage_bytes(a, false, true), 60 * n);
+  EXPECT_EQ(storage_bytes(a, true, false), 32 * 32 * 3);
+  EXPECT_EQ(storage_bytes(a, true, true), 60 * n + 32 * 32 * 3);
+}
+
+TEST(Evaluate, MissingPiecesAreErrors) {
+  Avatar a = scene_truth();
+  const std::vector<TrainFrame> f = scene_frames(a, 1);
+  EvalOptions o;
+  o.tto_steps = 0;
+  EXPECT_THROW(evaluate_variant({"x", nullptr, true, true}, f, o), Error);
+  a.texture = Texture{};
+  EXPECT_THROW(evaluate_variant({"x", &a, true, false}, f, o), Error);
+  EXPECT_NO_THROW(evaluate_variant({"x", &a, false, true}, f, o));  // Gaussians need no texture
+}
+
+TEST(Regions, JointsMapToBodyRegions) {
+  EXPECT_EQ(joint_region(15), BodyRegion::head);
+  EXPECT_EQ(joint_region(22), BodyRegion::head);
+  EXPECT_EQ(joint_region(0), BodyRegion::torso);
+  EXPECT_EQ(joint_region(9), BodyRegion::torso);
+  EXPECT_EQ(joint_region(18), BodyRegion::arms);
+  EXPECT_EQ(joint_region(21), BodyRegion::arms);
+  EXPECT_EQ(joint_region(25), BodyRegion::hands);
+  EXPECT_EQ(joint_region(54), BodyRegion::hands);
+  EXPECT_EQ(joint_region(4), BodyRegion::legs);
+  EXPECT_EQ(joint_region(10), BodyRegion::feet);
+  // Every region has faces on the procedural body, and the counts add up.
+  const BodyModel& b = scene_body();
+  const std::vector<BodyRegion> r = face_regions(b);
+  ASSERT_EQ(int(r.size()), b.num_faces);
+  BoundGaussians g;
+  for (int f = 0; f < b.num_faces; ++f) g.face.push_back(f);
+  const std::vector<int> c = gaussians_per_region(b, g);
+  int total = 0;
+  for (size_t k = 0; k < c.size(); ++k) {
+    EXPECT_GT(c[k], 0) << region_name(BodyRegion(k));
+    total += c[k];
+  }
+  EXPECT_EQ(total, b.num_faces);
+  // The head is above the feet in the rest pose.
+  double hy = 0, fy = 0;
+  int hn = 0, fn = 0;
+  for (int f = 0; f < b.num_faces; ++f) {
+    const double y = b.v_template[3 * size_t(b.faces[3 * size_t(f)]) + 1];
+    if (r[size_t(f)] == BodyRegion::head) hy += y, ++hn;
+    if (r[size_t(f)] == BodyRegion::feet) fy += y, ++fn;
+  }
+  EXPECT_GT(hy / hn, fy / fn + 1.0);
+}
+
+}  // namespace
+}  // namespace haha
