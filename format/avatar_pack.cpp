@@ -180,51 +180,59 @@ std::vector<float> baked_rest_vertices(const Avatar& a) {
   return out;
 }
 
-std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, PackedSizes* sizes_out) {
-  validate_avatar(a, "avatar");
-  const BodyModel& b = a.body;
-  if (b.vt.empty() || b.ft.size() != size_t(b.num_faces) * 3) {
-    fail("avatar", "body model has no UV map (vt/ft), which the texture needs");
-  }
-  const bool lossless = opt.lossless;
-  if (lossless && opt.texture_size > 0 && (opt.texture_size != a.texture.width || opt.texture_size != a.texture.height)) {
-    fail("--texture-size", "--lossless keeps the trained texture (" + std::to_string(a.texture.width) + " x " +
-                               std::to_string(a.texture.height) + "); a different size cannot be lossless");
-  }
-  const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
-  const MeshBits mb = lossless ? MeshBits{0, 0, 0, 0} : opt.mesh_bits;
-  const int V = b.num_verts, F = b.num_faces, N = a.gaussians.size();
+namespace {
 
-  PackedSizes sz;
-  sz.num_gaussians = N;
-  sz.num_faces = F;
+// The .glb under construction: the glTF JSON parts, the binary chunk they point into, the
+// HAHA_gaussian_avatar object and the bytes per part. The part writers below append to it
+// in file order (buffer views and accessors are numbered as they are added).
+struct GlbDoc {
   glb::BinWriter bin;
-  Json gltf;
-  gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v1)"}};
+  Json accessors = Json::array(), nodes = Json::array(), meshes = Json::array(), scene_nodes = Json::array();
+  Json skins, materials, samplers, images, texture;
   Json used = {"KHR_draco_mesh_compression", "KHR_materials_unlit", kAvatarExtension};
   Json required = {"KHR_draco_mesh_compression"};
-  Json accessors = Json::array();
-  auto add_accessor = [&](Json acc) {
+  Json ext;  // HAHA_gaussian_avatar
+  PackedSizes sz;
+  int add_accessor(Json acc) {
     accessors.push_back(std::move(acc));
     return int(accessors.size()) - 1;
-  };
+  }
+};
 
-  // ---- rest shape, joints ----
-  const std::vector<float> rest = baked_rest_vertices(a);
-  std::vector<double> joints(kNumJoints * 3, 0.0);
+// The subject's rest shape (betas baked in) and its joints.
+struct RestBody {
+  std::vector<float> verts;   // (V, 3)
+  std::vector<double> joints;  // (55, 3)
+};
+
+RestBody rest_body(const Avatar& a) {
+  const BodyModel& b = a.body;
+  const int V = b.num_verts;
+  RestBody r;
+  r.verts = baked_rest_vertices(a);
+  r.joints.assign(kNumJoints * 3, 0.0);
   for (int j = 0; j < kNumJoints; ++j)
     for (int v = 0; v < V; ++v) {
       const double w = b.j_regressor[size_t(j) * V + v];
       if (w != 0.0)
-        for (int k = 0; k < 3; ++k) joints[size_t(j) * 3 + k] += w * rest[size_t(v) * 3 + k];
+        for (int k = 0; k < 3; ++k) r.joints[size_t(j) * 3 + k] += w * r.verts[size_t(v) * 3 + k];
     }
+  return r;
+}
 
-  // ---- glTF mesh: split at UV seams, skin sets, normals ----
+// The skinned, textured body mesh: split at UV seams, Draco-compressed (sequential, so
+// face order is kept), with BODY_VERTEX (and, lossless, the exact UVs) as private
+// attributes. Mesh 0 of the file.
+void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackOptions& opt) {
+  const BodyModel& b = a.body;
+  const bool lossless = opt.lossless;
+  const MeshBits mb = lossless ? MeshBits{0, 0, 0, 0} : opt.mesh_bits;
+  const int V = b.num_verts, F = b.num_faces;
   const SplitMesh split = split_at_seams(b);
   const int Vg = int(split.source.size());
-  sz.num_vertices = Vg;
-  std::vector<float> pos = gather(rest, split.source, 3);
-  std::vector<float> nrm = gather(vertex_normals(rest, b), split.source, 3);
+  d.sz.num_vertices = Vg;
+  std::vector<float> pos = gather(rest.verts, split.source, 3);
+  std::vector<float> nrm = gather(vertex_normals(rest.verts, b), split.source, 3);
   std::vector<float> uv(size_t(Vg) * 2, 0.0f), uv_src(size_t(Vg) * 2, 0.0f);
   for (int g = 0; g < Vg; ++g) {
     const int32_t t = split.uv_of[size_t(g)];
@@ -235,8 +243,8 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
     uv[size_t(g) * 2 + 1] = 1.0f - uv_src[size_t(g) * 2 + 1];  // glTF UV origin: top-left
   }
   const SkinSets skin = skin_sets(b, lossless, opt.min_skin_weight);
-  sz.skin_sets = skin.sets;
-  sz.max_influences = skin.max_influences;
+  d.sz.skin_sets = skin.sets;
+  d.sz.max_influences = skin.max_influences;
   std::vector<std::vector<uint8_t>> joints_g(size_t(skin.sets));
   std::vector<std::vector<float>> weights_g(size_t(skin.sets));
   for (int s = 0; s < skin.sets; ++s) {
@@ -281,18 +289,18 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
         pos_max[size_t(k)] = std::max(pos_max[size_t(k)], p[size_t(g) * 3 + k]);
       }
   }
-  const int mesh_view = bin.add_view(mesh_enc.bytes.data(), mesh_enc.bytes.size());
-  sz.mesh = mesh_enc.bytes.size();
+  const int mesh_view = d.bin.add_view(mesh_enc.bytes.data(), mesh_enc.bytes.size());
+  d.sz.mesh = mesh_enc.bytes.size();
 
   Json prim_attrs, draco_attrs;
-  const int idx_acc = add_accessor({{"componentType", Vg > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
-  prim_attrs["POSITION"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"},
-                                         {"min", float_array(pos_min.data(), 3)}, {"max", float_array(pos_max.data(), 3)}});
-  prim_attrs["NORMAL"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
-  prim_attrs["TEXCOORD_0"] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
+  const int idx_acc = d.add_accessor({{"componentType", Vg > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
+  prim_attrs["POSITION"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"},
+                                           {"min", float_array(pos_min.data(), 3)}, {"max", float_array(pos_max.data(), 3)}});
+  prim_attrs["NORMAL"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
+  prim_attrs["TEXCOORD_0"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
   for (int s = 0; s < skin.sets; ++s) {
-    prim_attrs["JOINTS_" + std::to_string(s)] = add_accessor({{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
-    prim_attrs["WEIGHTS_" + std::to_string(s)] = add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC4"}});
+    prim_attrs["JOINTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
+    prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC4"}});
   }
   for (size_t i = 0; i < first_private; ++i) draco_attrs[mattrs[i].name] = mesh_enc.unique_ids[i];
 
@@ -301,10 +309,31 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
                     {"mode", 4},
                     {"material", 0},
                     {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", mesh_view}, {"attributes", draco_attrs}}}}}};
-  Json meshes = Json::array({{{"name", "body"}, {"primitives", Json::array({primitive})}}});
+  d.meshes.push_back({{"name", "body"}, {"primitives", Json::array({primitive})}});
 
-  // ---- skeleton: joint nodes (identity rest rotation, translation = offset to parent) ----
-  Json nodes = Json::array();
+  Json mesh_private;
+  for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
+  const Json m_bits = {{"POSITION", mb.position}, {"NORMAL", mb.normal}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
+  Json& body = d.ext["body"];
+  body["mesh"] = 0;
+  body["vertexCount"] = V;
+  body["faceCount"] = F;
+  body["draco"] = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
+                   {"quantizationBits", m_bits}};
+  body["skinSets"] = skin.sets;
+  body["shapeBaked"] = true;
+  // Whether the trainer's LBS applied pose correctives (a body with posedirs always does),
+  // and which topology supplies them when they are not embedded.
+  body["trainedWithPoseCorrectives"] = !b.posedirs.empty();
+  body["topologyCrc32"] = glb::crc32(reinterpret_cast<const uint8_t*>(b.faces.data()), b.faces.size() * 4);
+}
+
+// The skeleton: joint nodes (identity rest rotation, translation = offset to the parent),
+// the body node with its skin, inverse bind matrices, and the sparse joint regressor
+// (joint, vertex, weight) so a loader regresses the same joints.
+void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest) {
+  const int V = b.num_verts;
+  const std::vector<double>& joints = rest.joints;
   std::vector<Json> children(kNumJoints, Json::array());
   for (int j = 1; j < kNumJoints; ++j) children[size_t(b.parents[size_t(j)])].push_back(j);
   for (int j = 0; j < kNumJoints; ++j) {
@@ -313,24 +342,24 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
     for (int k = 0; k < 3; ++k) t[k] = float(joints[size_t(j) * 3 + k] - (p >= 0 ? joints[size_t(p) * 3 + k] : 0.0));
     Json node = {{"name", kJointNames[j]}, {"translation", float_array(t, 3)}};
     if (!children[size_t(j)].empty()) node["children"] = children[size_t(j)];
-    nodes.push_back(node);
+    d.nodes.push_back(node);
   }
-  const int mesh_node = int(nodes.size());
-  nodes.push_back({{"name", "body"}, {"mesh", 0}, {"skin", 0}});
+  const int mesh_node = int(d.nodes.size());
+  d.nodes.push_back({{"name", "body"}, {"mesh", 0}, {"skin", 0}});
+  d.scene_nodes = {0, mesh_node};
   std::vector<float> ibm(size_t(kNumJoints) * 16, 0.0f);
   for (int j = 0; j < kNumJoints; ++j) {
     float* m = &ibm[size_t(j) * 16];  // column-major: translation in elements 12..14
     m[0] = m[5] = m[10] = m[15] = 1.0f;
     for (int k = 0; k < 3; ++k) m[12 + k] = float(-joints[size_t(j) * 3 + k]);
   }
-  const int ibm_view = bin.add_view(ibm.data(), ibm.size() * sizeof(float));
-  const int ibm_acc = add_accessor({{"bufferView", ibm_view}, {"componentType", kFloat}, {"count", kNumJoints}, {"type", "MAT4"}});
+  const int ibm_view = d.bin.add_view(ibm.data(), ibm.size() * sizeof(float));
+  const int ibm_acc = d.add_accessor({{"bufferView", ibm_view}, {"componentType", kFloat}, {"count", kNumJoints}, {"type", "MAT4"}});
   Json joint_list = Json::array();
   for (int j = 0; j < kNumJoints; ++j) joint_list.push_back(j);
-  Json skins = Json::array({{{"name", "smplx"}, {"inverseBindMatrices", ibm_acc}, {"joints", joint_list}, {"skeleton", 0}}});
-  sz.skeleton += ibm.size() * sizeof(float);
+  d.skins = Json::array({{{"name", "smplx"}, {"inverseBindMatrices", ibm_acc}, {"joints", joint_list}, {"skeleton", 0}}});
+  d.sz.skeleton += ibm.size() * sizeof(float);
 
-  // Sparse joint regressor (joint, vertex, weight), so a loader regresses the same joints.
   std::vector<int32_t> jr_joint, jr_vert;
   std::vector<float> jr_w;
   for (int j = 0; j < kNumJoints; ++j)
@@ -346,32 +375,51 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   std::memcpy(jr_bytes.data(), jr_joint.data(), jr_w.size() * 4);
   std::memcpy(jr_bytes.data() + jr_w.size() * 4, jr_vert.data(), jr_w.size() * 4);
   std::memcpy(jr_bytes.data() + jr_w.size() * 8, jr_w.data(), jr_w.size() * 4);
-  const int jr_view = bin.add_view(jr_bytes.data(), jr_bytes.size());
-  sz.skeleton += jr_bytes.size();
+  const int jr_view = d.bin.add_view(jr_bytes.data(), jr_bytes.size());
+  d.sz.skeleton += jr_bytes.size();
+  d.ext["body"]["node"] = mesh_node;
+  d.ext["body"]["skin"] = 0;
+  d.ext["body"]["jointRegressor"] = {{"bufferView", jr_view}, {"count", jr_w.size()}, {"crc32", d.bin.view_crc(jr_view)}};
+}
 
-  // ---- texture ----
+// The texture image (png / jpg / webp) and the unlit material that samples it.
+void add_texture(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   Texture tex = a.texture;
   if (opt.texture_size > 0) tex = resize_texture(tex, opt.texture_size, opt.texture_size);
   const std::vector<uint8_t> img = encode_texture(tex, opt.texture_codec, opt.texture_quality);
-  const int img_view = bin.add_view(img.data(), img.size());
-  sz.texture = img.size();
-  Json images = Json::array({{{"bufferView", img_view}, {"mimeType", texture_mime(opt.texture_codec)}, {"name", "texture"}}});
-  Json texture_obj = {{"sampler", 0}};
+  const int img_view = d.bin.add_view(img.data(), img.size());
+  d.sz.texture = img.size();
+  d.images = Json::array({{{"bufferView", img_view}, {"mimeType", texture_mime(opt.texture_codec)}, {"name", "texture"}}});
+  d.texture = {{"sampler", 0}};
   if (opt.texture_codec == TextureCodec::webp) {
-    texture_obj["extensions"] = {{"EXT_texture_webp", {{"source", 0}}}};
-    used.push_back("EXT_texture_webp");
-    required.push_back("EXT_texture_webp");
+    d.texture["extensions"] = {{"EXT_texture_webp", {{"source", 0}}}};
+    d.used.push_back("EXT_texture_webp");
+    d.required.push_back("EXT_texture_webp");
   } else {
-    texture_obj["source"] = 0;
+    d.texture["source"] = 0;
   }
   // Linear filtering, clamp to edge: what the trainer's bilinear sampler does.
-  Json samplers = Json::array({{{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}});
-  Json materials = Json::array({{{"name", "avatar"},
-                                 {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
-                                 {"extensions", {{"KHR_materials_unlit", Json::object()}}}}});
+  d.samplers = Json::array({{{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}});
+  d.materials = Json::array({{{"name", "avatar"},
+                              {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
+                              {"extensions", {{"KHR_materials_unlit", Json::object()}}}}});
+  d.ext["texture"] = {{"image", 0}, {"crc32", d.bin.view_crc(img_view)}, {"width", tex.width}, {"height", tex.height}};
+}
 
-  // ---- Gaussians: Draco point cloud ----
+// Lossless packs also carry the trained float32 texture, after the Gaussians.
+void add_exact_texture(GlbDoc& d, const Avatar& a) {
+  const int ex_view = d.bin.add_view(a.texture.rgb.data(), a.texture.rgb.size() * sizeof(float));
+  d.ext["texture"]["exact"] = {{"bufferView", ex_view}, {"width", a.texture.width}, {"height", a.texture.height},
+                               {"crc32", d.bin.view_crc(ex_view)}};
+  d.sz.texture_exact = a.texture.rgb.size() * sizeof(float);
+}
+
+// The face-bound Gaussians as a Draco point cloud with per-attribute quantization.
+void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
+  const bool lossless = opt.lossless;
+  const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
   const BoundGaussians& G = a.gaussians;
+  const int N = G.size();
   // Lossy packs store the Gaussians sorted by face (stable): the face index then costs ~2
   // bits instead of ~8, and the render does not depend on the order. Lossless keeps it.
   std::vector<int32_t> order(static_cast<size_t>(N));
@@ -407,6 +455,9 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
     rot = std::move(rot3);
     for (float& x : scl) x = std::log(x);  // scales span decades: quantize them in log space
   }
+  using dracoio::AttrIn;
+  using dracoio::Kind;
+  using dracoio::Type;
   // Delta prediction only where consecutive Gaussians are related (face indices, offsets
   // and colours along the face order); measured smaller that way, the others without.
   std::vector<AttrIn> gattrs = {
@@ -418,148 +469,155 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
       {"OPACITY", Kind::generic, Type::f32, 1, opacity.data(), gb.opacity, false}};
   if (!lossless) gattrs.push_back({"ROTATION_LARGEST", Kind::generic, Type::u8, 1, largest.data(), 0, false});
   const dracoio::Encoded genc = dracoio::encode(N, gattrs, nullptr, 0);
-  const int g_view = bin.add_view(genc.bytes.data(), genc.bytes.size());
-  sz.gaussians = genc.bytes.size();
+  const int g_view = d.bin.add_view(genc.bytes.data(), genc.bytes.size());
+  d.sz.gaussians = genc.bytes.size();
   Json g_ids, g_bits;
   for (size_t i = 0; i < gattrs.size(); ++i) {
     g_ids[gattrs[i].name] = genc.unique_ids[i];
     if (gattrs[i].type == Type::f32) g_bits[gattrs[i].name] = gattrs[i].quant_bits;
   }
+  d.ext["gaussians"] = {{"count", N},
+                        {"bufferView", g_view},
+                        {"crc32", d.bin.view_crc(g_view)},
+                        {"attributes", g_ids},
+                        {"quantizationBits", g_bits},
+                        {"scaleEncoding", lossless ? "linear" : "log"},
+                        {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
+                        {"order", lossless ? "original" : "face"}};
+}
 
-  // ---- the extension object ----
-  Json mesh_private;
-  for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
-  Json m_bits = {{"POSITION", mb.position}, {"NORMAL", mb.normal}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
-  Json ext;
-  ext["version"] = kAvatarFormatVersion;
-  ext["body"] = {{"mesh", 0},
-                 {"node", mesh_node},
-                 {"skin", 0},
-                 {"vertexCount", V},
-                 {"faceCount", F},
-                 {"draco", {{"bufferView", mesh_view}, {"crc32", bin.view_crc(mesh_view)}, {"attributes", mesh_private},
-                            {"quantizationBits", m_bits}}},
-                 {"jointRegressor", {{"bufferView", jr_view}, {"count", jr_w.size()}, {"crc32", bin.view_crc(jr_view)}}},
-                 {"skinSets", skin.sets},
-                 {"shapeBaked", true},
-                 // Whether the trainer's LBS applied pose correctives (a body with posedirs
-                 // always does), and which topology supplies them when they are not embedded.
-                 {"trainedWithPoseCorrectives", !b.posedirs.empty()},
-                 {"topologyCrc32", glb::crc32(reinterpret_cast<const uint8_t*>(b.faces.data()), b.faces.size() * 4)}};
-  ext["subject"] = {{"betas", float_array(a.betas.data(), a.betas.size())},
-                    {"expression", float_array(a.expression.data(), a.expression.size())}};
-  ext["faceFrame"] = {{"scaleDivisor", double(a.face_scale_divisor)}};
-  if (a.depth_margin != 0.0f) ext["depthTest"] = {{"margin", double(a.depth_margin)}};  // absent: exact
-  ext["gaussians"] = {{"count", N},
-                      {"bufferView", g_view},
-                      {"crc32", bin.view_crc(g_view)},
-                      {"attributes", g_ids},
-                      {"quantizationBits", g_bits},
-                      {"scaleEncoding", lossless ? "linear" : "log"},
-                      {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
-                      {"order", lossless ? "original" : "face"}};
-  ext["texture"] = {{"image", 0}, {"crc32", bin.view_crc(img_view)}, {"width", tex.width}, {"height", tex.height}};
+// The pose-corrective blend shapes: float32 (lossless) or int16 with one scale per pose
+// feature (value = q * scale[feature]).
+void add_pose_correctives(GlbDoc& d, const BodyModel& b, bool lossless) {
+  const int V = b.num_verts;
+  if (b.posedirs.size() != size_t(V) * 3 * kNumPoseFeatures) {
+    fail("avatar", "--pose-correctives: the body model has no pose-corrective blend shapes (posedirs)");
+  }
+  Json pc;
   if (lossless) {
-    const int ex_view = bin.add_view(a.texture.rgb.data(), a.texture.rgb.size() * sizeof(float));
-    ext["texture"]["exact"] = {{"bufferView", ex_view}, {"width", a.texture.width}, {"height", a.texture.height},
-                               {"crc32", bin.view_crc(ex_view)}};
-    sz.texture_exact = a.texture.rgb.size() * sizeof(float);
+    const int v = d.bin.add_view(b.posedirs.data(), b.posedirs.size() * sizeof(float));
+    pc = {{"bufferView", v}, {"componentType", "float32"}, {"crc32", d.bin.view_crc(v)}};
+    d.sz.pose_correctives = d.bin.view_size(v);
+  } else {
+    std::vector<float> scale(kNumPoseFeatures, 0.0f);
+    const size_t rows = size_t(V) * 3;
+    for (size_t r = 0; r < rows; ++r)
+      for (int f = 0; f < kNumPoseFeatures; ++f)
+        scale[size_t(f)] = std::max(scale[size_t(f)], std::fabs(b.posedirs[r * kNumPoseFeatures + f]));
+    for (float& s : scale) s = s > 0 ? s / 32767.0f : 1.0f;
+    std::vector<int16_t> q(b.posedirs.size());
+    for (size_t r = 0; r < rows; ++r)
+      for (int f = 0; f < kNumPoseFeatures; ++f)
+        q[r * kNumPoseFeatures + f] = int16_t(std::lround(b.posedirs[r * kNumPoseFeatures + f] / scale[size_t(f)]));
+    const int v = d.bin.add_view(q.data(), q.size() * sizeof(int16_t));
+    const int sv = d.bin.add_view(scale.data(), scale.size() * sizeof(float));
+    pc = {{"bufferView", v}, {"componentType", "int16"}, {"crc32", d.bin.view_crc(v)},
+          {"scaleBufferView", sv}, {"scaleCrc32", d.bin.view_crc(sv)}};
+    d.sz.pose_correctives = d.bin.view_size(v) + d.bin.view_size(sv);
   }
-  if (opt.pose_correctives) {
-    if (b.posedirs.size() != size_t(V) * 3 * kNumPoseFeatures) {
-      fail("avatar", "--pose-correctives: the body model has no pose-corrective blend shapes (posedirs)");
-    }
-    Json pc;
-    if (lossless) {
-      const int v = bin.add_view(b.posedirs.data(), b.posedirs.size() * sizeof(float));
-      pc = {{"bufferView", v}, {"componentType", "float32"}, {"crc32", bin.view_crc(v)}};
-      sz.pose_correctives = bin.view_size(v);
-    } else {
-      // int16 with one scale per pose feature: value = q * scale[feature].
-      std::vector<float> scale(kNumPoseFeatures, 0.0f);
-      const size_t rows = size_t(V) * 3;
-      for (size_t r = 0; r < rows; ++r)
-        for (int f = 0; f < kNumPoseFeatures; ++f)
-          scale[size_t(f)] = std::max(scale[size_t(f)], std::fabs(b.posedirs[r * kNumPoseFeatures + f]));
-      for (float& s : scale) s = s > 0 ? s / 32767.0f : 1.0f;
-      std::vector<int16_t> q(b.posedirs.size());
-      for (size_t r = 0; r < rows; ++r)
-        for (int f = 0; f < kNumPoseFeatures; ++f)
-          q[r * kNumPoseFeatures + f] = int16_t(std::lround(b.posedirs[r * kNumPoseFeatures + f] / scale[size_t(f)]));
-      const int v = bin.add_view(q.data(), q.size() * sizeof(int16_t));
-      const int sv = bin.add_view(scale.data(), scale.size() * sizeof(float));
-      pc = {{"bufferView", v}, {"componentType", "int16"}, {"crc32", bin.view_crc(v)},
-            {"scaleBufferView", sv}, {"scaleCrc32", bin.view_crc(sv)}};
-      sz.pose_correctives = bin.view_size(v) + bin.view_size(sv);
-    }
-    ext["body"]["poseCorrectives"] = pc;
-  }
+  d.ext["body"]["poseCorrectives"] = pc;
+}
 
-  Json scene_nodes = {0, mesh_node};
-  if (opt.khr_gaussian_splatting) {
-    // Rest-pose world Gaussians (the face frames of the baked rest mesh).
-    std::vector<float> means(size_t(N) * 3), quats(size_t(N) * 4), scales(size_t(N) * 3);
-    pose_gaussians(rest.data(), b, a.face_scale_divisor, G, means.data(), quats.data(), scales.data());
-    std::vector<float> xyzw(size_t(N) * 4), op(G.opacity), sh0(size_t(N) * 3);
-    for (int i = 0; i < N; ++i) {
-      const float* q = &quats[size_t(i) * 4];
-      const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
-      for (int k = 0; k < 3; ++k) xyzw[size_t(i) * 4 + k] = float(q[k + 1] / n);
-      xyzw[size_t(i) * 4 + 3] = float(q[0] / n);
-      for (int k = 0; k < 3; ++k) sh0[size_t(i) * 3 + k] = float((G.color[size_t(i) * 3 + k] - 0.5) / 0.28209479177387814);
+// A KHR_gaussian_splatting primitive of the rest-pose world Gaussians (the face frames of
+// the baked rest mesh), for viewers that know only that extension.
+void add_rest_splats(GlbDoc& d, const Avatar& a, const RestBody& rest) {
+  const BoundGaussians& G = a.gaussians;
+  const int N = G.size();
+  std::vector<float> means(size_t(N) * 3), quats(size_t(N) * 4), scales(size_t(N) * 3);
+  pose_gaussians(rest.verts.data(), a.body, a.face_scale_divisor, G, means.data(), quats.data(), scales.data());
+  std::vector<float> xyzw(size_t(N) * 4), op(G.opacity), sh0(size_t(N) * 3);
+  for (int i = 0; i < N; ++i) {
+    const float* q = &quats[size_t(i) * 4];
+    const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
+    for (int k = 0; k < 3; ++k) xyzw[size_t(i) * 4 + k] = float(q[k + 1] / n);
+    xyzw[size_t(i) * 4 + 3] = float(q[0] / n);
+    for (int k = 0; k < 3; ++k) sh0[size_t(i) * 3 + k] = float((G.color[size_t(i) * 3 + k] - 0.5) / 0.28209479177387814);
+  }
+  std::vector<float> mn(3, INFINITY), mx(3, -INFINITY);
+  for (int i = 0; i < N; ++i)
+    for (int k = 0; k < 3; ++k) {
+      mn[size_t(k)] = std::min(mn[size_t(k)], means[size_t(i) * 3 + k]);
+      mx[size_t(k)] = std::max(mx[size_t(k)], means[size_t(i) * 3 + k]);
     }
-    std::vector<float> mn(3, INFINITY), mx(3, -INFINITY);
-    for (int i = 0; i < N; ++i)
-      for (int k = 0; k < 3; ++k) {
-        mn[size_t(k)] = std::min(mn[size_t(k)], means[size_t(i) * 3 + k]);
-        mx[size_t(k)] = std::max(mx[size_t(k)], means[size_t(i) * 3 + k]);
-      }
-    if (N == 0) mn = mx = {0.0f, 0.0f, 0.0f};
-    const size_t before = bin.bytes().size();
-    auto view_acc = [&](const std::vector<float>& data, const char* type, int count) {
-      const int v = bin.add_view(data.data(), data.size() * sizeof(float), 4, kArrayBuffer);
-      return add_accessor({{"bufferView", v}, {"componentType", kFloat}, {"count", count}, {"type", type}});
-    };
-    Json sattrs;
-    sattrs["POSITION"] = view_acc(means, "VEC3", N);
-    accessors[size_t(sattrs["POSITION"].get<int>())]["min"] = float_array(mn.data(), 3);
-    accessors[size_t(sattrs["POSITION"].get<int>())]["max"] = float_array(mx.data(), 3);
-    sattrs["KHR_gaussian_splatting:ROTATION"] = view_acc(xyzw, "VEC4", N);
-    sattrs["KHR_gaussian_splatting:SCALE"] = view_acc(scales, "VEC3", N);
-    sattrs["KHR_gaussian_splatting:OPACITY"] = view_acc(op, "SCALAR", N);
-    sattrs["KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"] = view_acc(sh0, "VEC3", N);
-    sz.splats = bin.bytes().size() - before;
-    meshes.push_back({{"name", "gaussians_rest_pose"},
+  if (N == 0) mn = mx = {0.0f, 0.0f, 0.0f};
+  const size_t before = d.bin.bytes().size();
+  auto view_acc = [&](const std::vector<float>& data, const char* type, int count) {
+    const int v = d.bin.add_view(data.data(), data.size() * sizeof(float), 4, kArrayBuffer);
+    return d.add_accessor({{"bufferView", v}, {"componentType", kFloat}, {"count", count}, {"type", type}});
+  };
+  Json sattrs;
+  sattrs["POSITION"] = view_acc(means, "VEC3", N);
+  d.accessors[size_t(sattrs["POSITION"].get<int>())]["min"] = float_array(mn.data(), 3);
+  d.accessors[size_t(sattrs["POSITION"].get<int>())]["max"] = float_array(mx.data(), 3);
+  sattrs["KHR_gaussian_splatting:ROTATION"] = view_acc(xyzw, "VEC4", N);
+  sattrs["KHR_gaussian_splatting:SCALE"] = view_acc(scales, "VEC3", N);
+  sattrs["KHR_gaussian_splatting:OPACITY"] = view_acc(op, "SCALAR", N);
+  sattrs["KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"] = view_acc(sh0, "VEC3", N);
+  d.sz.splats = d.bin.bytes().size() - before;
+  d.meshes.push_back({{"name", "gaussians_rest_pose"},
                       {"primitives", Json::array({{{"attributes", sattrs},
                                                    {"mode", 0},
                                                    {"extensions", {{"KHR_gaussian_splatting", {{"kernel", "ellipse"}, {"colorSpace", "srgb_rec709_display"}}}}}}})}});
-    const int splat_node = int(nodes.size());
-    nodes.push_back({{"name", "gaussians_rest_pose"}, {"mesh", 1}});
-    scene_nodes.push_back(splat_node);
-    used.push_back("KHR_gaussian_splatting");
-    ext["splats"] = {{"mesh", 1}, {"node", splat_node}};
+  const int splat_node = int(d.nodes.size());
+  d.nodes.push_back({{"name", "gaussians_rest_pose"}, {"mesh", 1}});
+  d.scene_nodes.push_back(splat_node);
+  d.used.push_back("KHR_gaussian_splatting");
+  d.ext["splats"] = {{"mesh", 1}, {"node", splat_node}};
+}
+
+}  // namespace
+
+std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, PackedSizes* sizes_out) {
+  validate_avatar(a, "avatar");
+  const BodyModel& b = a.body;
+  if (b.vt.empty() || b.ft.size() != size_t(b.num_faces) * 3) {
+    fail("avatar", "body model has no UV map (vt/ft), which the texture needs");
   }
+  if (opt.lossless && opt.texture_size > 0 && (opt.texture_size != a.texture.width || opt.texture_size != a.texture.height)) {
+    fail("--texture-size", "--lossless keeps the trained texture (" + std::to_string(a.texture.width) + " x " +
+                               std::to_string(a.texture.height) + "); a different size cannot be lossless");
+  }
+  GlbDoc d;
+  d.sz.num_gaussians = a.gaussians.size();
+  d.sz.num_faces = b.num_faces;
+  d.ext["version"] = kAvatarFormatVersion;
+  d.ext["subject"] = {{"betas", float_array(a.betas.data(), a.betas.size())},
+                      {"expression", float_array(a.expression.data(), a.expression.size())}};
+  d.ext["faceFrame"] = {{"scaleDivisor", double(a.face_scale_divisor)}};
+  if (a.depth_margin != 0.0f) d.ext["depthTest"] = {{"margin", double(a.depth_margin)}};  // absent: exact
 
-  gltf["extensionsUsed"] = used;
-  gltf["extensionsRequired"] = required;
-  gltf["extensions"] = {{kAvatarExtension, ext}};
+  // The parts, in file order.
+  const RestBody rest = rest_body(a);
+  add_body_mesh(d, a, rest, opt);
+  add_skeleton(d, b, rest);
+  add_texture(d, a, opt);
+  add_gaussians(d, a, opt);
+  if (opt.lossless) add_exact_texture(d, a);
+  if (opt.pose_correctives) add_pose_correctives(d, b, opt.lossless);
+  if (opt.khr_gaussian_splatting) add_rest_splats(d, a, rest);
+
+  Json gltf;
+  gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v1)"}};
+  gltf["extensionsUsed"] = d.used;
+  gltf["extensionsRequired"] = d.required;
+  gltf["extensions"] = {{kAvatarExtension, d.ext}};
   gltf["scene"] = 0;
-  gltf["scenes"] = Json::array({{{"name", "avatar"}, {"nodes", scene_nodes}}});
-  gltf["nodes"] = nodes;
-  gltf["meshes"] = meshes;
-  gltf["skins"] = skins;
-  gltf["materials"] = materials;
-  gltf["textures"] = Json::array({texture_obj});
-  gltf["samplers"] = samplers;
-  gltf["images"] = images;
-  gltf["accessors"] = accessors;
-  gltf["bufferViews"] = bin.views();
-  gltf["buffers"] = Json::array({{{"byteLength", bin.bytes().size()}}});
+  gltf["scenes"] = Json::array({{{"name", "avatar"}, {"nodes", d.scene_nodes}}});
+  gltf["nodes"] = d.nodes;
+  gltf["meshes"] = d.meshes;
+  gltf["skins"] = d.skins;
+  gltf["materials"] = d.materials;
+  gltf["textures"] = Json::array({d.texture});
+  gltf["samplers"] = d.samplers;
+  gltf["images"] = d.images;
+  gltf["accessors"] = d.accessors;
+  gltf["bufferViews"] = d.bin.views();
+  gltf["buffers"] = Json::array({{{"byteLength", d.bin.bytes().size()}}});
 
-  std::vector<uint8_t> out = glb::write_glb(gltf, bin.bytes());
-  sz.total = out.size();
-  sz.json = out.size() - ((bin.bytes().size() + 3) / 4 * 4) - 28;
-  if (sizes_out) *sizes_out = sz;
+  std::vector<uint8_t> out = glb::write_glb(gltf, d.bin.bytes());
+  d.sz.total = out.size();
+  d.sz.json = out.size() - ((d.bin.bytes().size() + 3) / 4 * 4) - 28;
+  if (sizes_out) *sizes_out = d.sz;
   return out;
 }
 

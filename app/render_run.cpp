@@ -1,0 +1,110 @@
+#include "app/render_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "format/avatar_loader.h"
+#include "io/body_model_io.h"
+#include "io/camera_json.h"
+#include "io/image.h"
+#include "io/motion.h"
+
+namespace haha {
+
+namespace {
+
+// A front camera (looking along -Z, OpenCV axes) framing the box [lo, hi] with a margin.
+Camera framing_camera(Vec3f lo, Vec3f hi, int size) {
+  Camera c;
+  c.width = c.height = size;
+  c.fx = c.fy = 1.5f * float(size);  // ~37 degrees field of view
+  c.cx = c.cy = 0.5f * float(size);
+  const Vec3f centre = 0.5f * (lo + hi);
+  const float half = 0.5f * std::max(hi.x - lo.x, hi.y - lo.y) * 1.15f;
+  const float dist = half * c.fx / (0.5f * float(size)) + 0.5f * (hi.z - lo.z);
+  c.R = Mat3f::identity();
+  c.R.a[1][1] = -1;  // world +Y up -> image up; camera looks along world -Z
+  c.R.a[2][2] = -1;
+  const Vec3f eye(centre.x, centre.y, centre.z + dist);
+  c.t = -(c.R * eye);
+  c.far_plane = dist * 4 + 10;
+  return c;
+}
+
+}  // namespace
+
+void run_render(const RenderRunOptions& o) {
+  if (o.motion.empty() && o.params.empty()) fail("render", "give --motion or --params");
+  if (o.size <= 0 || o.size > 16384) fail("--size", "must be in 1..16384");
+  if (o.every <= 0) fail("--every", "must be positive");
+  if (!o.video.empty() && std::system("ffmpeg -version > /dev/null 2>&1") != 0) {
+    fail("--video", "the ffmpeg command is not installed; render without --video or install ffmpeg");
+  }
+  std::unique_ptr<BodyModel> model;
+  if (!o.model.empty()) model = std::make_unique<BodyModel>(load_body_model(o.model));
+  const AvatarRuntime avatar = AvatarRuntime::load(o.avatar, model.get());
+  if (avatar.missing_pose_correctives()) {
+    std::fprintf(stderr,
+                 "haha: warning: %s was trained with pose correctives, which it does not embed; without --model "
+                 "the reposed body differs from the trainer's under strong poses\n",
+                 o.avatar.c_str());
+  }
+  const Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
+  std::vector<size_t> frames;
+  for (size_t t = 0; t < motion.frames.size(); t += size_t(o.every)) {
+    if (o.max_frames > 0 && int(frames.size()) >= o.max_frames) break;
+    frames.push_back(t);
+  }
+  if (frames.empty()) fail(o.motion.empty() ? o.params : o.motion, "no frames");
+
+  PosedAvatar posed;
+  Camera cam;
+  if (!o.camera.empty()) {
+    cam = read_camera_json(o.camera);
+  } else {  // frame the whole motion
+    Vec3f lo(INFINITY), hi(-INFINITY);
+    for (size_t t : frames) {
+      avatar.repose(motion.frames[t], posed);
+      for (int v = 0; v < posed.num_verts; ++v)
+        for (int k = 0; k < 3; ++k) {
+          lo[k] = std::min(lo[k], posed.verts[size_t(v) * 3 + k]);
+          hi[k] = std::max(hi[k], posed.verts[size_t(v) * 3 + k]);
+        }
+    }
+    cam = framing_camera(lo, hi, o.size);
+  }
+  ensure_directory(o.out);
+  AvatarRenderOptions ro;
+  for (int c = 0; c < 3; ++c) ro.background[c] = o.background[c];
+  AvatarRenderScratch scratch;
+  Image img(cam.width, cam.height, 3);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    avatar.repose(motion.frames[frames[i]], posed);
+    avatar.render(cam, posed, img.data, ro, scratch);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%05zu.png", i);
+    write_image((std::filesystem::path(o.out) / name).string(), img);
+  }
+  std::printf("%s: %zu frames (%dx%d) -> %s\n", o.avatar.c_str(), frames.size(), cam.width, cam.height, o.out.c_str());
+  if (!o.video.empty()) {
+    const double fps = o.fps > 0 ? o.fps : motion.fps / o.every;
+    write_atomically(o.video, [&](const std::string& tmp) {
+      char rate[32];
+      std::snprintf(rate, sizeof rate, "%.6g", fps);
+      const std::string cmd = std::string("ffmpeg -y -loglevel error -framerate ") + rate + " -i '" +
+                              (std::filesystem::path(o.out) / "frame_%05d.png").string() +
+                              "' -c:v libx264 -pix_fmt yuv420p -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -f mp4 '" + tmp + "'";
+      if (std::system(cmd.c_str()) != 0) fail(o.video, "ffmpeg failed to encode the frames");
+    });
+    std::printf("%s: %zu frames at %.3g fps\n", o.video.c_str(), frames.size(), fps);
+  }
+}
+
+}  // namespace haha

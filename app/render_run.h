@@ -1,0 +1,28 @@
+// `haha render`: repose a packed avatar with a motion (AMASS-style or native SMPL-X
+// parameters) and render every frame with the merged mesh + Gaussian renderer
+// (format/avatar_loader.h) to DIR/frame_%05d.png, optionally encoding an mp4 with the
+// ffmpeg command-line tool.
+#pragma once
+
+#include <string>
+
+namespace haha {
+
+struct RenderRunOptions {
+  std::string avatar;         // .glb
+  std::string motion;         // AMASS-style motion .npz, or
+  std::string params;         // a native SMPL-X parameter file
+  std::string out;            // directory for frame_%05d.png
+  std::string camera;         // cam.json; empty: a front camera framing the whole motion
+  std::string video;          // also encode an .mp4 (ffmpeg) when set
+  std::string model;          // body model: pose correctives (and PCA hands) when the file has none
+  float background[3] = {1, 1, 1};
+  int size = 512;             // image side of the default camera
+  int every = 1, max_frames = 0;
+  double fps = 0;             // video rate; 0: the motion's rate / every
+};
+
+// Throws haha::Error naming the file or option for bad input.
+void run_render(const RenderRunOptions& o);
+
+}  // namespace haha
