@@ -277,6 +277,9 @@ struct Trainer::Impl {
   // ---------------------------------------------------------------------------------
   // Stage 1.
   bool step1(LossTerms& terms, std::string& event);
+  const float* knn_term(const LossWeights& w, bool need_knn, LossTerms& terms);
+  void accumulate_pose_grad(int fi, float inv_b);
+  void update_stage1(float inv_b);
 
   void densify(std::string& event);
 

@@ -3,6 +3,79 @@
 
 namespace haha {
 
+// The KNN regulariser (docs/method.md section 3) on the posed centres of the last render;
+// its gradient on the centres is returned (added in the render's backward), the others
+// are added to the parameter gradients here.
+const float* Trainer::Impl::knn_term(const LossWeights& w, bool need_knn, LossTerms& terms) {
+  const int n = g.size();
+  if (need_knn) update_knn(rbuf.means.data());
+  d_means_extra.assign(3 * size_t(n), 0.0f);
+  rot_unit.resize(4 * size_t(n));
+  d_rot_unit.assign(4 * size_t(n), 0.0f);
+  for (int i = 0; i < n; ++i) {
+    const float* r = &g.rotation[4 * size_t(i)];
+    const float len = std::sqrt(std::max(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3], 1e-30f));
+    for (int c = 0; c < 4; ++c) rot_unit[4 * size_t(i) + c] = r[c] / len;
+  }
+  KnnRegInputs<float> ki;
+  ki.n = n;
+  ki.position = rbuf.means.data();
+  ki.rotation = rot_unit.data();
+  ki.scale = act.scale.data();
+  ki.color = act.color.data();
+  KnnRegGrads<float> kg;
+  kg.position = d_means_extra.data();
+  kg.rotation = d_rot_unit.data();
+  kg.scale = d_scale.data();
+  kg.color = d_color.data();
+  const double v = knn_reg(ki, knn_idx.data(), cfg.s1.knn_k, KnnRegWeights{}, &kg, float(w.knn));
+  terms.knn += v;
+  terms.total += w.knn * v;
+  return d_means_extra.data();
+}
+
+// Pose refinement: the frame's SMPL-X gradient from the posed-vertex gradient, added to its
+// body / fine groups (and the shared betas).
+void Trainer::Impl::accumulate_pose_grad(int fi, float inv_b) {
+  const SmplxParams fp = frame_params(fi);
+  SmplxGrad<float> sg = lbs.make_grad(fp);
+  lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
+  std::vector<float>& db = d_frame_body[size_t(fi)];
+  std::vector<float>& dfn = d_frame_fine[size_t(fi)];
+  if (!frame_touched[size_t(fi)]) {
+    std::fill(db.begin(), db.end(), 0.0f);
+    std::fill(dfn.begin(), dfn.end(), 0.0f);
+    frame_touched[size_t(fi)] = 1;
+  }
+  pose_to_groups(sg, db.data(), dfn.data(), /*accumulate=*/true);
+  for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q] * inv_b;
+}
+
+// Adam on the Gaussians, and on the refined poses and betas (batch means).
+void Trainer::Impl::update_stage1(float inv_b) {
+  const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
+  adam.set_lr(adam.group("offset"), sched(step));
+  adam.step(adam.group("offset"), g.offset.data(), d_offset.data());
+  adam.step(adam.group("rotation"), g.rotation.data(), d_rotation.data());
+  adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
+  adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
+  if (cfg.s1.refine_pose) {
+    adam.step(adam.group("betas"), betas.data(), d_betas.data());
+    for (int i = 0; i < nf; ++i) {
+      if (!frame_touched[size_t(i)]) continue;
+      // Mean over the batch: a frame drawn twice in one batch counts twice.
+      for (float& x : d_frame_body[size_t(i)]) x *= inv_b;
+      for (float& x : d_frame_fine[size_t(i)]) x *= inv_b;
+      std::vector<float> body_vals(kPoseBodyGroup), fine_vals(kPoseFineGroup);
+      SmplxParams& p = params[size_t(i)];
+      pose_to_groups(p, body_vals.data(), fine_vals.data());
+      adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
+      adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
+      groups_to_pose(body_vals.data(), fine_vals.data(), p);
+    }
+  }
+}
+
 bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
   const int n = g.size(), B = cfg.batch;
   const LossWeights w = effective(1);
@@ -44,33 +117,8 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
       terms.total += w.dice * v * inv_b;
       d_alpha_ptr = d_alpha.data();
     }
-    const float* d_means_ptr = nullptr;
-    if (b == 0 && w.knn > 0 && n > 1) {
-      if (need_knn) update_knn(rbuf.means.data());
-      d_means_extra.assign(3 * size_t(n), 0.0f);
-      rot_unit.resize(4 * size_t(n));
-      d_rot_unit.assign(4 * size_t(n), 0.0f);
-      for (int i = 0; i < n; ++i) {
-        const float* r = &g.rotation[4 * size_t(i)];
-        const float len = std::sqrt(std::max(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3], 1e-30f));
-        for (int c = 0; c < 4; ++c) rot_unit[4 * size_t(i) + c] = r[c] / len;
-      }
-      KnnRegInputs<float> ki;
-      ki.n = n;
-      ki.position = rbuf.means.data();
-      ki.rotation = rot_unit.data();
-      ki.scale = act.scale.data();
-      ki.color = act.color.data();
-      KnnRegGrads<float> kg;
-      kg.position = d_means_extra.data();
-      kg.rotation = d_rot_unit.data();
-      kg.scale = d_scale.data();
-      kg.color = d_color.data();
-      const double v = knn_reg(ki, knn_idx.data(), cfg.s1.knn_k, KnnRegWeights{}, &kg, float(w.knn));
-      terms.knn += v;
-      terms.total += w.knn * v;
-      d_means_ptr = d_means_extra.data();
-    }
+    // The KNN regulariser on the posed centres, once per batch.
+    const float* d_means_ptr = b == 0 && w.knn > 0 && n > 1 ? knn_term(w, need_knn, terms) : nullptr;
     d_verts.assign(3 * size_t(body.num_verts), 0.0f);
     AvatarRenderGrads gr;
     gr.verts = cfg.s1.refine_pose ? d_verts.data() : nullptr;
@@ -82,20 +130,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
     for (int i = 0; i < n; ++i)
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
-    if (cfg.s1.refine_pose) {
-      const SmplxParams fp = frame_params(fi);
-      SmplxGrad<float> sg = lbs.make_grad(fp);
-      lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
-      std::vector<float>& db = d_frame_body[size_t(fi)];
-      std::vector<float>& dfn = d_frame_fine[size_t(fi)];
-      if (!frame_touched[size_t(fi)]) {
-        std::fill(db.begin(), db.end(), 0.0f);
-        std::fill(dfn.begin(), dfn.end(), 0.0f);
-        frame_touched[size_t(fi)] = 1;
-      }
-      pose_to_groups(sg, db.data(), dfn.data(), /*accumulate=*/true);
-      for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q] * inv_b;
-    }
+    if (cfg.s1.refine_pose) accumulate_pose_grad(fi, inv_b);
   }
   if (!rot_unit.empty() && !d_rot_unit.empty() && w.knn > 0 && n > 1)
     for (int i = 0; i < n; ++i) {
@@ -116,27 +151,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     if (frame_touched[size_t(i)]) ok = finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)]);
   if (!ok) return false;
 
-  const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
-  adam.set_lr(adam.group("offset"), sched(step));
-  adam.step(adam.group("offset"), g.offset.data(), d_offset.data());
-  adam.step(adam.group("rotation"), g.rotation.data(), d_rotation.data());
-  adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
-  adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
-  if (cfg.s1.refine_pose) {
-    adam.step(adam.group("betas"), betas.data(), d_betas.data());
-    for (int i = 0; i < nf; ++i) {
-      if (!frame_touched[size_t(i)]) continue;
-      // Mean over the batch: a frame drawn twice in one batch counts twice.
-      for (float& x : d_frame_body[size_t(i)]) x *= inv_b;
-      for (float& x : d_frame_fine[size_t(i)]) x *= inv_b;
-      std::vector<float> body_vals(kPoseBodyGroup), fine_vals(kPoseFineGroup);
-      SmplxParams& p = params[size_t(i)];
-      pose_to_groups(p, body_vals.data(), fine_vals.data());
-      adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
-      adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
-      groups_to_pose(body_vals.data(), fine_vals.data(), p);
-    }
-  }
+  update_stage1(inv_b);
   // Densification, after the update (3DGS order), on the completed-step count.
   const int done_steps = step + 1;
   const Stage1Config& s1 = cfg.s1;
