@@ -33,7 +33,11 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   if (!in) fail(path, "cannot read image: " + one_line(OIIO::geterror()));
   const OIIO::ImageSpec& s = in->spec();
   if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) fail(path, "cannot read image: empty image");
-  if (int64_t(s.width) * s.height * s.nchannels > (int64_t(1) << 31)) fail(path, "image too large");
+  // Decoded images are float: refuse sizes past 1 GiB of them before allocating (a tiny
+  // compressed file can declare a huge, uniform image).
+  if (int64_t(s.width) * s.height * s.nchannels > (int64_t(1) << 28))
+    fail(path, "image too large: " + std::to_string(s.width) + " x " + std::to_string(s.height) + " x " +
+                   std::to_string(s.nchannels) + " values exceed 1 GiB as float");
   return in;
 }
 

@@ -2,6 +2,7 @@
 
 #include <zip.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -189,24 +190,36 @@ NpyArray parse_npy(const uint8_t* data, size_t size, const std::string& where) {
   a.dtype = parse_descr(a.descr);
   const std::string fortran = header_value(h, "fortran_order", where);
   const std::string shape = header_value(h, "shape", where);
-  // "(3, 4)" / "(5,)" / "()"
+  // "(3, 4)" / "(5,)" / "()". Dimensions are bounded so their product cannot overflow;
+  // the data the shape needs is checked against what the buffer holds before any copy.
+  constexpr int64_t kMaxDim = int64_t(1) << 40;
   std::string num;
   for (char c : shape) {
     if (c >= '0' && c <= '9') {
       num += c;
+      if (num.size() > 13) fail(where, "npy shape '" + shape + "': dimension too large");
     } else if (c == ',' || c == ')') {
-      if (!num.empty()) a.shape.push_back(std::stoll(num));
+      if (!num.empty()) {
+        const int64_t d = std::stoll(num);
+        if (d > kMaxDim) fail(where, "npy shape '" + shape + "': dimension too large");
+        a.shape.push_back(d);
+        if (a.shape.size() > 32) fail(where, "npy shape '" + shape + "': more than 32 dimensions");
+      }
       num.clear();
     } else if (c != '(' && c != ' ' && c != 'L') {
       fail(where, "malformed npy shape '" + shape + "'");
     }
   }
   if (a.dtype == DType::unsupported) return a;  // listed, not decoded (object arrays etc.)
-  const size_t nbytes = size_t(a.size()) * size_t(dtype_size(a.dtype));
   const size_t body = offset + header_len;
-  if (size - body < nbytes)
-    fail(where, "truncated .npy data: shape " + shape_string(a.shape) + " needs " + std::to_string(nbytes) +
-                    " bytes, file has " + std::to_string(size - body));
+  const size_t have = size - body;
+  const size_t esize = size_t(dtype_size(a.dtype));
+  unsigned __int128 count = 1;  // elements; clamped once past what the data could hold
+  for (int64_t d : a.shape) count = std::min<unsigned __int128>(count * uint64_t(d), have + 1);
+  if (count * esize > have)
+    fail(where, "truncated .npy data: shape " + shape_string(a.shape) + " needs more than the " + std::to_string(have) +
+                    " bytes the file has");
+  const size_t nbytes = size_t(count) * esize;
   a.bytes.assign(data + body, data + body + nbytes);
   if (fortran.find("True") != std::string::npos && a.shape.size() > 1) {
     if (dtype_size(a.dtype) == 4) transpose_fortran<uint32_t>(a.bytes, a.shape);
@@ -262,10 +275,17 @@ Npz Npz::read(const std::string& path) {
     const zip_int64_t n = zip_get_num_entries(z, 0);
     for (zip_int64_t i = 0; i < n; ++i) {
       zip_stat_t st;
-      if (zip_stat_index(z, zip_uint64_t(i), 0, &st) != 0) fail(path, "corrupt zip directory");
+      if (zip_stat_index(z, zip_uint64_t(i), 0, &st) != 0 || !(st.valid & ZIP_STAT_NAME) ||
+          !(st.valid & ZIP_STAT_SIZE) || !(st.valid & ZIP_STAT_COMP_SIZE))
+        fail(path, "corrupt zip directory");
       std::string name = st.name;
       if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) name.resize(name.size() - 4);
       const std::string where = path + ": " + name;
+      // The directory's uncompressed size is only a claim: refuse one that the member's
+      // compressed bytes cannot produce (deflate expands at most ~1032:1) before allocating.
+      if (st.size > st.comp_size * 1100 + 4096)
+        fail(where, "archive member claims " + std::to_string(st.size) + " bytes from " +
+                        std::to_string(st.comp_size) + " compressed bytes (corrupt or hostile)");
       zip_file_t* zf = zip_fopen_index(z, zip_uint64_t(i), 0);
       if (!zf) fail(where, "cannot read archive member");
       std::vector<uint8_t> buf(st.size);

@@ -210,6 +210,14 @@ GaussianPly read_ply_3dgs(const std::string& path) {
 
   const int64_t N = h.count;
   const size_t nprop = h.props.size();
+  // Refuse a count the data cannot hold BEFORE allocating for it: a binary record is
+  // `stride` bytes, an ASCII one at least one character and one separator per property.
+  const size_t have = bytes.size() - h.data_start;
+  const size_t min_record = h.format == Header::ascii ? 2 * nprop : size_t(h.stride);
+  const size_t room = h.format == Header::ascii ? have + 1 : have;  // the last separator may be missing
+  if (N > 0 && room / min_record < size_t(N))
+    fail(path, "element vertex: " + std::to_string(N) + " vertices cannot fit in the " + std::to_string(have) +
+                   " bytes after the header (at most " + std::to_string(room / min_record) + "; truncated file?)");
   std::vector<double> rec(nprop);
   GaussianPly g;
   g.sh_degree = degree;
@@ -222,13 +230,6 @@ GaussianPly read_ply_3dgs(const std::string& path) {
 
   const char* text = bytes.data() + h.data_start;
   const char* text_end = bytes.data() + bytes.size();
-  if (h.format != Header::ascii) {
-    const size_t need_bytes = size_t(N) * size_t(h.stride);
-    const size_t have = bytes.size() - h.data_start;
-    if (have < need_bytes)
-      fail(path, "truncated: " + std::to_string(N) + " vertices need " + std::to_string(need_bytes) +
-                     " bytes of data, the file has " + std::to_string(have));
-  }
   const bool swap = (h.format == Header::binary_be) == (std::endian::native == std::endian::little);
   for (int64_t i = 0; i < N; ++i) {
     if (h.format == Header::ascii) {

@@ -130,6 +130,33 @@ TEST_F(ImageTest, UnreadableFilesAreOneLineErrorsNamingThem) {
   expect_error([&] { read_image(path("cut.png")); }, path("cut.png"));
 }
 
+// A PNG whose header declares 30000 x 30000 RGB (2.7e9 float values) over a few bytes:
+// refused from the header, before any pixel buffer exists.
+TEST_F(ImageTest, HugeDeclaredSizeIsRefusedBeforeDecoding) {
+  auto crc32 = [](const std::string& s) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (unsigned char ch : s) {
+      c ^= ch;
+      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+  };
+  auto be32 = [](uint32_t v) {
+    return std::string{char(v >> 24), char(v >> 16), char(v >> 8), char(v)};
+  };
+  auto chunk = [&](const std::string& type, const std::string& data) {
+    return be32(uint32_t(data.size())) + type + data + be32(crc32(type + data));
+  };
+  const std::string ihdr = be32(30000) + be32(30000) + std::string{8, 2, 0, 0, 0};  // 8-bit RGB
+  const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) +
+                          chunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) + chunk("IEND", "");
+  {
+    std::ofstream f(path("huge.png"), std::ios::binary);
+    f << png;
+  }
+  expect_error([&] { read_image(path("huge.png")); }, path("huge.png"), "image too large: 30000 x 30000 x 3");
+}
+
 TEST_F(ImageTest, FailedWritesLeaveNothing) {
   Image bad = pattern(4, 4, 3);
   bad.data[5] = std::nanf("");

@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <unistd.h>
 
 #include "core/error.h"
@@ -71,6 +73,51 @@ TEST(Npy, BadInputNamesFileAndKey) {
   expect_error([&] { parse_npy(bytes.data(), bytes.size(), "x.npz: key"); }, "x.npz: key", "truncated");
   std::remove(p.c_str());
   std::remove(q.c_str());
+}
+
+// A header whose shape claims far more than the data holds, or dimensions whose product
+// overflows, is refused before anything is allocated for it.
+std::vector<uint8_t> npy_with_shape(const std::string& shape, size_t data_bytes) {
+  std::string h = "{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }";
+  while ((10 + h.size() + 1) % 64) h += ' ';
+  h += '\n';
+  std::vector<uint8_t> out = {0x93, 'N', 'U', 'M', 'P', 'Y', 1, 0, uint8_t(h.size() & 0xff), uint8_t(h.size() >> 8)};
+  out.insert(out.end(), h.begin(), h.end());
+  out.resize(out.size() + data_bytes, 0);
+  return out;
+}
+
+TEST(Npy, HostileShapesAreRefusedBeforeAllocating) {
+  for (const std::string shape : {"(2000000000, 1000000)", "(1099511627776, 1099511627776, 1099511627776)",
+                                  "(4294967296, 4294967296)"}) {
+    const std::vector<uint8_t> b = npy_with_shape(shape, 1024);
+    expect_error([&] { parse_npy(b.data(), b.size(), "h.npz: key"); }, "h.npz: key", "truncated");
+  }
+  const std::vector<uint8_t> big = npy_with_shape("(123456789012345678901234567890,)", 16);
+  expect_error([&] { parse_npy(big.data(), big.size(), "h.npz: key"); }, "h.npz: key", "dimension too large");
+  const std::vector<uint8_t> ok = npy_with_shape("(2, 2)", 16);
+  EXPECT_EQ(parse_npy(ok.data(), ok.size(), "ok").as_float().size(), 4u);
+  const std::vector<uint8_t> empty = npy_with_shape("(0, 1099511627776)", 0);
+  EXPECT_EQ(parse_npy(empty.data(), empty.size(), "empty").size(), 0);
+}
+
+TEST(Npy, ZipMemberClaimingMoreThanItsBytesCanHoldIsRefused) {
+  Npz z;
+  z.set("a", NpyArray::from(std::vector<float>(64, 1.0f), {64}));
+  const std::string p = tmp("claim.npz");
+  z.write(p);
+  std::string bytes;
+  {
+    std::ifstream f(p, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  }
+  // Central directory entry (signature PK\1\2): uncompressed size at offset 24 -> 3 GB.
+  const size_t cd = bytes.find(std::string("PK\x01\x02", 4));
+  ASSERT_NE(cd, std::string::npos);
+  const uint32_t claim = 3000000000u;
+  std::memcpy(&bytes[cd + 24], &claim, 4);
+  std::ofstream(p, std::ios::binary) << bytes;
+  expect_error([&] { Npz::read(p); }, p, "claims 3000000000 bytes");
 }
 
 TEST(Npy, UnsupportedDtypeIsListedButNotDecoded) {

@@ -189,6 +189,12 @@ TEST(Ply3dgs, MalformedFilesNameFileAndProblem) {
   // Truncated ascii.
   expect_error(write_file("trunc_ascii.ply", header("ascii", 2, kDeg0) + "0 0 1 0 0 0 0 -3 -3 -3 1 0 0 0\n0 0 1\n"),
                "truncated");
+  // A hostile count over a small body is refused before anything is allocated for it
+  // (2e9 records would need hundreds of GB): one line naming the file and the field.
+  const std::string body_1k(1024, '\0');
+  for (const char* fmt : {"binary_little_endian", "ascii"})
+    expect_error(write_file("huge.ply", header(fmt, 2'000'000'000, kDeg0) + body_1k),
+                 "element vertex: 2000000000 vertices cannot fit in the 1024 bytes");
   // NaN / Inf in a used property, binary and ascii.
   for (int k : {0, 6, 13}) {
     auto r = rec;
