@@ -34,7 +34,12 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   const OIIO::ImageSpec& s = in->spec();
   if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0) fail(path, "cannot read image: empty image");
   // Decoded images are float: refuse sizes past 1 GiB of them before allocating (a tiny
-  // compressed file can declare a huge, uniform image).
+  // compressed file can declare a huge, uniform image). Sides are bounded too: decoders
+  // buffer whole chunks of scanlines (EXR DWAB: 256 lines of the declared width), and
+  // volume images or more than 16 channels are nothing this project reads.
+  if (s.width > 65536 || s.height > 65536 || s.depth != 1 || s.nchannels > 16)
+    fail(path, "image too large or unsupported: " + std::to_string(s.width) + " x " + std::to_string(s.height) + " x " +
+                   std::to_string(s.depth) + " pixels, " + std::to_string(s.nchannels) + " channels");
   if (int64_t(s.width) * s.height * s.nchannels > (int64_t(1) << 28))
     fail(path, "image too large: " + std::to_string(s.width) + " x " + std::to_string(s.height) + " x " +
                    std::to_string(s.nchannels) + " values exceed 1 GiB as float");
