@@ -420,6 +420,15 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
   const BoundGaussians& G = a.gaussians;
   const int N = G.size();
+  if (N == 0) {  // filtering removed every Gaussian: no point cloud (Draco has no empty one)
+    d.ext["gaussians"] = {{"count", 0},
+                          {"attributes", Json::object()},
+                          {"quantizationBits", Json::object()},
+                          {"scaleEncoding", lossless ? "linear" : "log"},
+                          {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
+                          {"order", lossless ? "original" : "face"}};
+    return;
+  }
   // Lossy packs store the Gaussians sorted by face (stable): the face index then costs ~2
   // bits instead of ~8, and the render does not depend on the order. Lossless keeps it.
   std::vector<int32_t> order(static_cast<size_t>(N));
@@ -594,7 +603,7 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   add_gaussians(d, a, opt);
   if (opt.lossless) add_exact_texture(d, a);
   if (opt.pose_correctives) add_pose_correctives(d, b, opt.lossless);
-  if (opt.khr_gaussian_splatting) add_rest_splats(d, a, rest);
+  if (opt.khr_gaussian_splatting && a.gaussians.size() > 0) add_rest_splats(d, a, rest);  // glTF has no empty accessor
 
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v1)"}};

@@ -343,6 +343,12 @@ class AvatarReader {
     const std::string G = E + ".gaussians";
     N_ = rd_.integer(jg, "count", G, 0, kMaxCount);
     const int64_t N = N_;
+    info_.scale_encoding = as_string(member(jg, "scaleEncoding", where_, G), where_, G + ".scaleEncoding");
+    info_.rotation_encoding = as_string(member(jg, "rotationEncoding", where_, G), where_, G + ".rotationEncoding");
+    if (N == 0) {  // no point cloud: every Gaussian was filtered away
+      if (find_member(jg, "bufferView")) fail(where_, G + ": a bufferView for zero Gaussians");
+      return;
+    }
     const glb::ByteSpan gbytes = rd_.view(jg, "bufferView", "crc32", G);
     info_.sizes.gaussians = gbytes.size;
     dracoio::Decoded gdec(gbytes.data, gbytes.size, false, where_, "gaussians", N);
@@ -355,7 +361,6 @@ class AvatarReader {
       if (qb->is_object())
         for (auto& [k, v] : qb->items()) info_.gaussian_bits[k] = int(as_int(v, where_, G + ".quantizationBits." + k, 0, 30));
     }
-    info_.scale_encoding = as_string(member(jg, "scaleEncoding", where_, G), where_, G + ".scaleEncoding");
     if (info_.scale_encoding != "log" && info_.scale_encoding != "linear") {
       fail(where_, G + ".scaleEncoding: unknown '" + info_.scale_encoding + "'");
     }
@@ -370,7 +375,6 @@ class AvatarReader {
       bg.face[size_t(i)] = int32_t(face[size_t(i)]);
     }
     bg.offset = gdec.floats(draco_id(gids, "OFFSET", GA), 3, "OFFSET");
-    info_.rotation_encoding = as_string(member(jg, "rotationEncoding", where_, G), where_, G + ".rotationEncoding");
     if (info_.rotation_encoding == "wxyz") {
       bg.rotation = gdec.floats(draco_id(gids, "ROTATION", GA), 4, "ROTATION");
     } else if (info_.rotation_encoding == "smallest3") {

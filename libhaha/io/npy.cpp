@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -271,7 +272,10 @@ Npz Npz::read(const std::string& path) {
     fail(path, "cannot open as .npz: " + msg);
   }
   Npz npz(path);
+  std::error_code size_error;
+  const uint64_t archive_bytes = std::filesystem::file_size(path, size_error);
   try {
+    if (size_error) fail(path, "cannot read its size");
     const zip_int64_t n = zip_get_num_entries(z, 0);
     for (zip_int64_t i = 0; i < n; ++i) {
       zip_stat_t st;
@@ -281,8 +285,12 @@ Npz Npz::read(const std::string& path) {
       std::string name = st.name;
       if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) name.resize(name.size() - 4);
       const std::string where = path + ": " + name;
-      // The directory's uncompressed size is only a claim: refuse one that the member's
-      // compressed bytes cannot produce (deflate expands at most ~1032:1) before allocating.
+      // The directory's sizes are only claims: the compressed bytes must lie in the file,
+      // and the uncompressed size must be what they can produce (deflate expands at most
+      // ~1032:1), before anything is allocated for it.
+      if (st.comp_size > archive_bytes)
+        fail(where, "archive member claims " + std::to_string(st.comp_size) + " compressed bytes in a " +
+                        std::to_string(archive_bytes) + "-byte file (corrupt or hostile)");
       if (st.size > st.comp_size * 1100 + 4096)
         fail(where, "archive member claims " + std::to_string(st.size) + " bytes from " +
                         std::to_string(st.comp_size) + " compressed bytes (corrupt or hostile)");

@@ -233,5 +233,23 @@ TEST(FormatRoundTrip, TextureOptions) {
   EXPECT_THROW(pack_avatar(a, bad), Error);
 }
 
+// Filtering can remove every Gaussian: such an avatar packs without a point cloud (Draco
+// has no empty one, glTF no empty accessor) and reads back as the textured mesh alone.
+TEST(FormatRoundTrip, AvatarWithoutGaussiansPacksAndReadsBack) {
+  Avatar a = test::make_test_avatar(0);
+  ASSERT_EQ(a.gaussians.size(), 0);
+  PackOptions lossy, lossless, splats;
+  lossless.lossless = true;
+  splats.khr_gaussian_splatting = true;
+  for (const PackOptions& o : {lossy, lossless, splats}) {
+    const std::vector<uint8_t> b = pack_avatar(a, o);
+    const UnpackedAvatar u = unpack_avatar(b.data(), b.size(), "empty.glb");
+    EXPECT_EQ(u.avatar.gaussians.size(), 0);
+    EXPECT_EQ(u.info.sizes.num_gaussians, 0);
+    EXPECT_EQ(u.avatar.body.num_faces, a.body.num_faces);
+    EXPECT_FALSE(u.info.splats);
+  }
+}
+
 }  // namespace
 }  // namespace haha
