@@ -6,8 +6,11 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <vector>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -23,9 +26,57 @@ std::string one_line(std::string s) {
   return s.empty() ? "unknown error" : s;
 }
 
+constexpr int64_t kMaxSide = 65536;
+
+// OpenEXR allocates from header fields while opening the file, before OpenImageIO hands
+// us a spec (fuzzing found an attribute size that made it take 2 GB), so EXR headers are
+// checked here first: every attribute must fit in the file, every dataWindow /
+// displayWindow must be a box within kMaxSide. Layout: magic, version, then
+// (name\0 type\0 int32 size, value) attributes up to an empty name.
+void check_exr_header(const std::string& path) {
+  std::error_code ec;
+  const uint64_t file_size = std::filesystem::file_size(path, ec);
+  if (ec) return;
+  std::ifstream f(path, std::ios::binary);
+  std::vector<char> h(65536);
+  f.read(h.data(), std::streamsize(h.size()));
+  h.resize(size_t(f.gcount()));
+  if (h.size() < 8 || uint8_t(h[0]) != 0x76 || uint8_t(h[1]) != 0x2f || uint8_t(h[2]) != 0x31 || uint8_t(h[3]) != 0x01)
+    return;  // not an EXR: its own reader decides
+  size_t p = 8;
+  auto cstr = [&](std::string& out) {
+    const auto end = std::find(h.begin() + std::ptrdiff_t(std::min(p, h.size())), h.end(), '\0');
+    if (end == h.end()) return false;
+    out.assign(h.begin() + std::ptrdiff_t(p), end);
+    p = size_t(end - h.begin()) + 1;
+    return true;
+  };
+  std::string name, type;
+  while (cstr(name) && !name.empty() && cstr(type)) {
+    if (p + 4 > h.size()) return;
+    int32_t size;
+    std::memcpy(&size, &h[p], 4);
+    p += 4;
+    if (size < 0 || p + uint64_t(size) > file_size)
+      fail(path, "corrupt EXR header: attribute '" + name + "' claims " + std::to_string(size) + " bytes, the file has " +
+                     std::to_string(file_size));
+    if (p + size_t(size) > h.size()) return;  // a header past 64 KiB: OpenEXR checks the rest
+    if (type == "box2i" && size == 16 && (name == "dataWindow" || name == "displayWindow")) {
+      int32_t b[4];
+      std::memcpy(b, &h[p], 16);
+      const int64_t w = int64_t(b[2]) - b[0] + 1, hgt = int64_t(b[3]) - b[1] + 1;
+      if (w < 1 || hgt < 1 || w > kMaxSide || hgt > kMaxSide)
+        fail(path, "image too large or unsupported: EXR " + name + " of " + std::to_string(w) + " x " +
+                       std::to_string(hgt) + " pixels");
+    }
+    p += size_t(size);
+  }
+}
+
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) fail(path, "cannot read image: no such file");
+  check_exr_header(path);
   // Alpha is data here (masks, RGBA frames): no (un)premultiplication on the way.
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
@@ -37,7 +88,7 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   // compressed file can declare a huge, uniform image). Sides are bounded too: decoders
   // buffer whole chunks of scanlines (EXR DWAB: 256 lines of the declared width), and
   // volume images or more than 16 channels are nothing this project reads.
-  if (s.width > 65536 || s.height > 65536 || s.depth != 1 || s.nchannels > 16)
+  if (s.width > kMaxSide || s.height > kMaxSide || s.depth != 1 || s.nchannels > 16)
     fail(path, "image too large or unsupported: " + std::to_string(s.width) + " x " + std::to_string(s.height) + " x " +
                    std::to_string(s.depth) + " pixels, " + std::to_string(s.nchannels) + " channels");
   if (int64_t(s.width) * s.height * s.nchannels > (int64_t(1) << 28))

@@ -144,10 +144,10 @@ std::string shape_string(const std::vector<int64_t>& shape) {
   return s + ")";
 }
 
-int64_t NpyArray::size() const {
-  int64_t n = 1;
-  for (int64_t d : shape) n *= d;
-  return n;
+int64_t NpyArray::size() const {  // saturates: a listed-only array's shape is not bounded by data
+  unsigned __int128 n = 1;
+  for (int64_t d : shape) n = std::min<unsigned __int128>(n * uint64_t(std::max<int64_t>(d, 0)), INT64_MAX);
+  return int64_t(n);
 }
 
 std::vector<float> NpyArray::as_float() const { return convert_any<float>(*this); }
