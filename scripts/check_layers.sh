@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The layering check (run by ctest as `layering`): every #include "<layer>/..." in the
 # sources must point at the same layer or one it may use. Layers, bottom up:
-#   core < body < render < cuda < train;  io < data;  format;  app;  cli
+#   core < body < render < cuda < train;  io < data;  format;  runtime;  app;  cli
+# runtime/ (libhaha_runtime.so) publishes "haha/haha_runtime.h"; samples/ may include
+# nothing else of the project (they build against an installed prefix).
 # Fails with one line per wrong-way include: file:line: <layer> may not include <layer>/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,6 +17,8 @@ declare -A allowed=(
   [io]="core body render io"
   [data]="core body render io data"
   [format]="core body render io format"
+  [runtime]="core body render io format haha"
+  [samples]="haha"
   [app]="core body render cuda train io data format app"
   [cli]="core body render train io data format app"
 )
@@ -23,6 +27,8 @@ layer_of() {  # path -> layer name
   case "$1" in
     libhaha/*) local rest=${1#libhaha/}; echo "${rest%%/*}" ;;
     format/*) echo format ;;
+    runtime/*) echo runtime ;;
+    samples/*) echo samples ;;
     app/*) echo app ;;
     cli/*) echo cli ;;
   esac
@@ -39,7 +45,8 @@ while IFS= read -r file; do
     esac
   done < <(grep -n '^[[:space:]]*#[[:space:]]*include[[:space:]]*"[a-z_]*/' "$file" |
            sed -E 's/^([0-9]+):[[:space:]]*#[[:space:]]*include[[:space:]]*"([a-z_]+)\/.*/\1:\2/')
-done < <(find libhaha format app cli -type f \( -name '*.h' -o -name '*.cpp' -o -name '*.cu' -o -name '*.cuh' \) | sort)
+done < <(find libhaha format runtime app cli samples -name node_modules -prune -o -type f \
+           \( -name '*.h' -o -name '*.c' -o -name '*.cpp' -o -name '*.cu' -o -name '*.cuh' \) -print | sort)
 
 if [ "$bad" -ne 0 ]; then
   echo "check_layers: wrong-way includes found (see the layer list at the top of scripts/check_layers.sh)"

@@ -41,7 +41,9 @@ step() {  # step NAME: prints a banner with the elapsed time
 
 step build "install dependencies and build the haha command (scripts/build.sh --target haha)"
 if [ "$build" = 1 ]; then
-  bash scripts/build.sh --target haha  # the tests and benchmarks are built by scripts/test.sh
+  # The tests and benchmarks are built by scripts/test.sh (which also installs Chromium for
+  # the web viewer's browser test; the demo does not need it).
+  HAHA_NO_BROWSER=1 bash scripts/build.sh --target haha
 fi
 [ -x "$haha" ] || { echo "demo.sh: $haha is not built (run without --no-build)" >&2; exit 1; }
 
