@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The test command: installs, builds and runs the CTest suite (labels fast and slow; gpu
-# tests run only where a GPU is present). `scripts/test.sh -L fast` runs the fast ones.
+# The test command: installs, builds and runs the CTest suite (labels fast, slow and fuzz;
+# the gpu label is left out: `scripts/test.sh -L gpu` on a GPU machine). `scripts/test.sh
+# -L fast` runs the fast ones.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
