@@ -432,12 +432,16 @@ HAHA_API haha_status haha_render(haha_posed* posed, const haha_camera* camera, c
     if (flags & ~(HAHA_RENDER_NO_MESH | HAHA_RENDER_NO_GAUSSIANS)) argument_error(call, "unknown flags " + std::to_string(flags));
     int channels = 0;
     size_t bytes_per_value = 0;
-    switch (format) {
+    // A C caller may pass any int: read it as one (loading an out-of-range enum is UB in C++).
+    int format_value;
+    static_assert(sizeof format_value == sizeof format);
+    std::memcpy(&format_value, &format, sizeof format_value);
+    switch (format_value) {
       case HAHA_PIXEL_RGB8: channels = 3, bytes_per_value = 1; break;
       case HAHA_PIXEL_RGBA8: channels = 4, bytes_per_value = 1; break;
       case HAHA_PIXEL_RGB32F: channels = 3, bytes_per_value = 4; break;
       case HAHA_PIXEL_RGBA32F: channels = 4, bytes_per_value = 4; break;
-      default: argument_error(call, "unknown pixel format " + std::to_string(int(format)));
+      default: argument_error(call, "unknown pixel format " + std::to_string(format_value));
     }
     const size_t P = size_t(c.width) * size_t(c.height);
     require_capacity(call, "pixels (bytes)", capacity_bytes, P * size_t(channels) * bytes_per_value);
