@@ -1,5 +1,7 @@
 #include "app/lpips_weights.h"
 
+#include <cmath>
+
 #include "core/error.h"
 #include "io/npy.h"
 
@@ -17,6 +19,8 @@ LpipsWeights read_lpips_weights(const std::string& path) {
     LpipsTensor t;
     t.shape = a.shape;
     t.data = a.as_float();
+    for (size_t i = 0; i < t.data.size(); ++i)
+      if (!std::isfinite(t.data[i])) fail(path, key + ": non-finite value at flat index " + std::to_string(i));
     w.tensors.emplace(key, std::move(t));
   }
   if (w.tensors.empty())

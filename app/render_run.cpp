@@ -50,12 +50,6 @@ void run_render(const RenderRunOptions& o) {
   std::unique_ptr<BodyModel> model;
   if (!o.model.empty()) model = std::make_unique<BodyModel>(load_body_model(o.model));
   const AvatarRuntime avatar = AvatarRuntime::load(o.avatar, model.get());
-  if (avatar.missing_pose_correctives()) {
-    std::fprintf(stderr,
-                 "haha: warning: %s was trained with pose correctives, which it does not embed; without --model "
-                 "the reposed body differs from the trainer's under strong poses\n",
-                 o.avatar.c_str());
-  }
   const Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
   std::vector<size_t> frames;
   for (size_t t = 0; t < motion.frames.size(); t += size_t(o.every)) {
@@ -79,6 +73,13 @@ void run_render(const RenderRunOptions& o) {
         }
     }
     cam = framing_camera(lo, hi, o.size);
+  }
+  // Warned once every input has been read, so a bad input's error stays the only line.
+  if (avatar.missing_pose_correctives()) {
+    std::fprintf(stderr,
+                 "haha: warning: %s was trained with pose correctives, which it does not embed; without --model "
+                 "the reposed body differs from the trainer's under strong poses\n",
+                 o.avatar.c_str());
   }
   ensure_directory(o.out);
   AvatarRenderOptions ro;

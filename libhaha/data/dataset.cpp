@@ -92,6 +92,21 @@ Image to_rgb(Image img, const std::string& where) {
   return out;
 }
 
+// Pixels must be finite and, where the dataset's contract says so (frames and masks read
+// from a dataset: RGB and coverage in [0, 1]), within [0, 1]; a float image (EXR, TIFF)
+// can hold anything. The first offending pixel is named.
+void check_pixels(const Image& img, const std::string& where, bool unit_range) {
+  for (size_t k = 0; k < img.data.size(); ++k) {
+    const float v = img.data[k];
+    if (std::isfinite(v) && (!unit_range || (v >= 0.0f && v <= 1.0f))) continue;
+    const size_t px = k / size_t(img.channels);
+    const std::string at = "pixel (" + std::to_string(px % size_t(img.width)) + ", " +
+                           std::to_string(px / size_t(img.width)) + ")";
+    if (!std::isfinite(v)) fail(where, "non-finite value at " + at);
+    fail(where, "value " + std::to_string(v) + " at " + at + " is outside [0, 1]");
+  }
+}
+
 // First channel (grey masks; an RGB(A) mask uses its red channel).
 Image first_channel(const Image& img) {
   if (img.channels == 1) return img;
@@ -304,6 +319,8 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
     const auto& [img_path, mask_path] = files.at(size_t(i));
     rgb = to_rgb(read_image(img_path), img_path);
     mask = first_channel(read_image(mask_path));
+    check_pixels(rgb, img_path, true);
+    check_pixels(mask, mask_path, true);
   };
   if (load == LoadPixels::all) ds.load_all();
   return ds;
@@ -391,10 +408,8 @@ void DatasetWriter::add(const DatasetFrame& frame, const Image& rgb_in, const Im
   if (truth) check_finite(*truth, (s_->dir / "smplx" / "params_true.npz").string() + ": frame " + std::to_string(i));
   if (i > 0 && (truth != nullptr) != (s_->with_truth > 0))
     fail(src, "true SMPL-X parameters must be given for every frame or for none");
-  for (size_t k = 0; k < rgb_in.data.size(); ++k)
-    if (!std::isfinite(rgb_in.data[k])) fail(src, "non-finite pixel value");
-  for (size_t k = 0; k < mask.data.size(); ++k)
-    if (!std::isfinite(mask.data[k])) fail(mask_src, "non-finite mask value");
+  check_pixels(rgb_in, src, false);  // written as PNG: the range is clamped there
+  check_pixels(mask, mask_src, false);
 
   const Image rgb = to_rgb(rgb_in, src);
   write_image((s_->tmp / img_rel).string(), rgb);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <unistd.h>
 
 #include "app/lpips_weights.h"
@@ -63,4 +64,14 @@ TEST(LpipsWeightsFile, BadFilesGiveOneLineErrors) {
   none.write(pn);
   expect_error([&] { read_lpips_weights(pn); }, pn, "no LPIPS arrays");
   std::remove(pn.c_str());
+
+  // A NaN or Inf weight would turn every LPIPS loss and metric into NaN: refused up front.
+  for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+    Npz nan;
+    nan.set("alex.features.0.weight", NpyArray::from(std::vector<float>{1, 2, bad, 4}, {2, 2, 1, 1}));
+    const std::string pf = tmp("nan.npz");
+    nan.write(pf);
+    expect_error([&] { read_lpips_weights(pf); }, pf, "alex.features.0.weight: non-finite value at flat index 2");
+    std::remove(pf.c_str());
+  }
 }

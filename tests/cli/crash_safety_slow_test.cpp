@@ -1,5 +1,5 @@
-// Crash safety: SIGKILL at random moments of `haha train`, `pack`, `unpack`, `render` and
-// `eval` never leaves a half-written output under its final name (every output that exists
+// Crash safety: SIGKILL at random moments of `haha train`, `pack`, `unpack`, `render`,
+// `eval` and `convert` never leaves a half-written output under its final name (every output that exists
 // reads back whole), and `train --resume` after repeated kills ends bit-identical to an
 // uninterrupted run (the avatar files are compared byte for byte).
 #include <fcntl.h>
@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "data/dataset.h"
 #include "format/avatar_unpack.h"
 #include "io/image.h"
 #include "io/npy.h"
@@ -60,12 +61,22 @@ std::vector<uint8_t> bytes_of(const fs::path& p) {
   return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
-// Every file under `dir` with a final name (not a *.tmp-PID working file) reads back whole.
+// Every file under `dir` with a final name (not a *.tmp-PID working file) reads back whole,
+// and so does every dataset directory (one with a dataset.json).
 void expect_outputs_whole(const fs::path& dir, const std::string& when) {
   if (!fs::exists(dir)) return;
   for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
     const fs::path p = e.path();
+    if (e.is_directory() && p.filename().string().find(".tmp-") == std::string::npos &&
+        fs::exists(p / "dataset.json")) {
+      SCOPED_TRACE(when + ": dataset " + p.string());
+      try {
+        read_dataset(p.string(), LoadPixels::all);
+      } catch (const std::exception& ex) {
+        ADD_FAILURE() << "half-written dataset: " << ex.what();
+      }
+    }
+    if (!e.is_regular_file()) continue;
     const std::string name = p.filename().string(), ext = p.extension().string();
     if (name.find(".tmp-") != std::string::npos) continue;  // not yet renamed: not an output
     SCOPED_TRACE(when + ": " + p.string());
@@ -114,6 +125,28 @@ class CrashSafety : public ::testing::Test {
       a.push_back(kv);
     return a;
   }
+  // An SMPLify-X layout of `n` frames (the fixture pickles, cycled) at 96 x 96.
+  fs::path smplifyx_input(int n) const {
+    const fs::path fits = dir_ / "fits";
+    const fs::path pickles = fs::path(__FILE__).parent_path().parent_path() / "fixtures" / "pickle" / "smplifyx";
+    fs::create_directories(fits / "images");
+    fs::create_directories(fits / "masks");
+    for (int i = 0; i < n; ++i) {
+      char stem[16];
+      std::snprintf(stem, sizeof stem, "%05d", i);
+      Image rgb(96, 96, 3), mask(96, 96, 1);
+      for (size_t k = 0; k < rgb.data.size(); ++k) rgb.data[k] = float((k * 7 + size_t(i) * 13) % 256) / 255.0f;
+      for (int y = 20; y < 80; ++y)
+        for (int x = 30; x < 66; ++x) mask.at(x, y, 0) = 1.0f;
+      fs::create_directories(fits / "results" / stem);
+      write_image((fits / "images" / (std::string(stem) + ".png")).string(), rgb);
+      write_image((fits / "masks" / (std::string(stem) + ".png")).string(), mask);
+      char src[16];
+      std::snprintf(src, sizeof src, "%05d", i % 3);
+      fs::copy_file(pickles / src / "000.pkl", fits / "results" / stem / "000.pkl");
+    }
+    return fits;
+  }
   fs::path dir_;
 };
 
@@ -149,18 +182,32 @@ TEST_F(CrashSafety, KilledTrainingResumesToTheSameAvatarAndOtherCommandsLeaveNoH
   fs::create_directories(dir_ / "out");
   ASSERT_EQ(run_maybe_killed({"pack", ref.string(), "--out", glb}, 600000), 0);
   ASSERT_EQ(run_maybe_killed({"motion", "--out", (dir_ / "m.npz").string(), "--frames", "6"}, 600000), 0);
+  const std::string body = (dir_ / "body.npz").string();
+  ASSERT_EQ(run_maybe_killed({"synth-body", "--out", body, "--resolution", "low"}, 600000), 0);
+  const fs::path fits = smplifyx_input(24);
+  // Uninterrupted, the conversion succeeds (so the killed ones below are cut mid-work).
+  ASSERT_EQ(run_maybe_killed({"convert", "--from", "smplifyx", "--in", fits.string(), "--body", body, "--out",
+                              (dir_ / "converted_whole").string()},
+                             600000),
+            0);
   const std::vector<std::vector<std::string>> commands = {
       {"pack", ref.string(), "--out", (dir_ / "out" / "b.glb").string(), "--lossless"},
       {"unpack", glb, "--out", (dir_ / "out" / "unpacked").string()},
       {"render", glb, "--motion", (dir_ / "m.npz").string(), "--out", (dir_ / "out" / "frames").string(), "--size", "48"},
-      {"eval", "--run", ref.string(), "--tto-steps", "2"}};
+      {"eval", "--run", ref.string(), "--tto-steps", "2"},
+      {"convert", "--from", "smplifyx", "--in", fits.string(), "--body", body, "--out",
+       (dir_ / "out" / "converted").string()}};
+  int other_kills = 0;
   for (const auto& c : commands)
     for (int k = 0; k < 4; ++k) {
       const int code2 = run_maybe_killed(c, delay(rng) / 4);
+      other_kills += code2 == -1;
       EXPECT_TRUE(code2 == 0 || code2 == -1) << c[0] << " exit code " << code2;
       expect_outputs_whole(dir_ / "out", c[0]);
       expect_outputs_whole(ref, c[0]);
     }
+  RecordProperty("other_kills", std::to_string(other_kills));
+  EXPECT_GT(other_kills, 0);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -31,10 +32,22 @@ void expect_result_or_error(F&& f) {
   }
 }
 
-// The bytes as a file (the readers that take paths): one per process, rewritten per input.
+// The files as_file() made, removed when the process ends normally.
+struct TempFiles {
+  std::vector<std::string> paths;
+  ~TempFiles() {
+    std::error_code ec;
+    for (const std::string& p : paths) std::filesystem::remove(p, ec);
+  }
+};
+
+// The bytes as a file (the readers that take paths): one per process and extension,
+// rewritten per input.
 inline std::string as_file(const uint8_t* data, size_t size, const std::string& extension) {
+  static TempFiles made;
   const std::string path =
       (std::filesystem::temp_directory_path() / ("haha-fuzz-" + std::to_string(::getpid()) + extension)).string();
+  if (std::find(made.paths.begin(), made.paths.end(), path) == made.paths.end()) made.paths.push_back(path);
   std::ofstream f(path, std::ios::binary | std::ios::trunc);
   f.write(reinterpret_cast<const char*>(data), std::streamsize(size));
   return path;
