@@ -59,6 +59,7 @@ std::string eval_report_json(const EvalReport& r) {
   j["background"] = r.background;
   j["preset"] = r.preset;
   j["tto_steps"] = r.tto_steps;
+  j["antialias"] = r.antialias;
   j["lpips"] = r.lpips_available ? ojson("AlexNet (user-supplied weights)") : ojson(kLpipsUnavailable);
   j["switches"] = r.switches;
   j["eval_seconds"] = r.eval_seconds;
@@ -118,7 +119,8 @@ std::string eval_report_markdown(const EvalReport& r) {
   s += "# HAHA evaluation: " + r.run_dir + "\n\n";
   s += "Data: `" + r.data_dir + "`, split " + r.split + ", " + std::to_string(r.frame_names.size()) +
        " frames, background " + r.background + ", test-time pose optimisation " + std::to_string(r.tto_steps) +
-       " steps, preset " + r.preset + ".\n";
+       " steps" + (r.antialias ? std::string(", antialiased mesh silhouette") : std::string()) + ", preset " +
+       r.preset + ".\n";
   s += "LPIPS: " + std::string(r.lpips_available ? "AlexNet, user-supplied weights" : kLpipsUnavailable) + ".\n";
   if (!r.switches.empty()) {
     s += "Switches:";

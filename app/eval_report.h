@@ -14,6 +14,7 @@ namespace haha {
 struct EvalReport {
   std::string run_dir, data_dir, split = "test", background = "black", preset;
   int tto_steps = 0;
+  bool antialias = false;  // mesh silhouette antialiased (haha eval --antialias)
   bool lpips_available = false;
   std::vector<std::string> switches;     // e.g. "use_sobel=false"
   std::array<double, 3> stage_seconds{0, 0, 0};  // training wall time per stage (0 = unknown)

@@ -38,6 +38,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   for (float& c : opt.background) c = bgv;
   opt.premultiplied = dataset_premultiplied(ds, info.config.premultiplied);
   opt.keep_images = o.sheet_frames;
+  opt.antialias = o.antialias;
   std::unique_ptr<LpipsNet<float>> alex;
   LpipsWeights lw;
   const std::string lp = o.lpips_weights.empty() ? info.lpips_weights_path : o.lpips_weights;
@@ -57,6 +58,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.background = o.background;
   r.preset = info.config.preset;
   r.tto_steps = opt.tto_steps;
+  r.antialias = opt.antialias;
   r.lpips_available = alex != nullptr;
   const TrainConfig defaults = make_preset(info.config.preset);
   for (const auto& [k, v] : config_to_pairs(info.config))

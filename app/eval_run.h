@@ -19,6 +19,7 @@ struct EvalRunOptions {
   int sheet_frames = 4;              // frames on the contact sheet
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
   bool print_table = true;           // one line per variant on stdout while it runs
+  bool antialias = false;            // antialiased mesh silhouette (EvalOptions::antialias)
 };
 
 // Evaluates the four variants, writes the report files and returns the report.

@@ -23,6 +23,8 @@ HAHA_COMMAND(eval) {
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--sheet-frames", r.sheet_frames, "frames on the contact sheet")->capture_default_str();
   sub->add_option("--lpips-weights", r.lpips_weights, "LPIPS weight file (AlexNet part used); default: the run's");
+  sub->add_flag("--antialias", r.antialias,
+                "antialias the mesh silhouette in test-time pose optimisation and the final render");
   sub->add_flag("--json", a->json, "print report.json instead of the table");
   sub->callback([a] {
     a->run.print_table = !a->json;

@@ -16,6 +16,7 @@ HAHA_COMMAND(synth) {
   struct Opts {
     std::string out, body, resolution = "full";
     haha::SynthOptions o;
+    double fit_noise = 0, fit_noise_pose = 0, fit_noise_transl = 0;
   };
   auto a = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("synth", "Render the synthetic clothed subject as a dataset (the embedded sample)");
@@ -28,13 +29,19 @@ HAHA_COMMAND(synth) {
   sub->add_option("--test-frames", a->o.test_frames, "test frames (novel poses)")->capture_default_str();
   sub->add_option("--seed", a->o.seed, "subject colours, motion details, fit noise, procedural body")
       ->capture_default_str();
-  sub->add_option("--fit-noise", a->o.fit_noise,
-                  "sigma of Gaussian noise on the stored fits: pose axis-angle (rad) and transl (m)")
+  sub->add_option("--fit-noise", a->fit_noise,
+                  "sigma of Gaussian noise on the stored fits, both pose axis-angle (rad) and transl (m)")
       ->capture_default_str();
+  CLI::Option* pose_opt =
+      sub->add_option("--fit-noise-pose", a->fit_noise_pose, "sigma on every pose axis-angle value (rad; default --fit-noise)");
+  CLI::Option* transl_opt = sub->add_option("--fit-noise-transl", a->fit_noise_transl, "sigma on transl (m; default --fit-noise)");
   sub->add_option("--supersample", a->o.supersample, "subsamples per pixel side (anti-aliasing)")->capture_default_str();
   sub->add_option("--texture-size", a->o.texture_size, "body texture side (0: automatic)")->capture_default_str();
-  sub->callback([a] {
+  sub->callback([a, pose_opt, transl_opt] {
     const auto t0 = std::chrono::steady_clock::now();
+    if (!(a->fit_noise >= 0 && a->fit_noise <= 1)) haha::fail("--fit-noise", "must be in [0, 1]");
+    a->o.fit_noise.pose = pose_opt->count() ? a->fit_noise_pose : a->fit_noise;
+    a->o.fit_noise.transl = transl_opt->count() ? a->fit_noise_transl : a->fit_noise;
     haha::validate_synth_options(a->o);  // cheap checks before any work
     if (a->resolution != "low" && a->resolution != "full")
       haha::fail("--body-resolution", "unknown value '" + a->resolution + "' (expected low or full)");

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cuda/merge_cuda.h"
+#include "cuda/mesh_antialias_cuda.h"
 #include "render/avatar_render_impl.h"
 
 namespace haha::cuda {
@@ -43,6 +44,13 @@ struct Cuda : CudaRenderBackend {
                                  const GaussianRasterOutputGrads<float>& dout, const GaussianGrads<float>& grads) {
     rasterize_gaussians_backward_cuda(in, cam, s, state, dout, grads);
   }
+  static void antialias(const AntialiasInputsT<float>& in, float* color_out, float* mask_out) {
+    antialias_cuda(in, color_out, mask_out);
+  }
+  static void antialias_backward(const AntialiasInputsT<float>& in, const float* d_color_out, const float* d_mask_out,
+                                 float* d_color, float* d_verts) {
+    antialias_backward_cuda(in, d_color_out, d_mask_out, d_color, d_verts);
+  }
   static void merge(const MergeInputs& in, float* out) { merge_cuda(in, out); }
   static void merge_backward(const MergeInputs& in, const float* d_out, const MergeGrads& grads) {
     merge_backward_cuda(in, d_out, grads);
@@ -67,12 +75,14 @@ AvatarBodyCuda::AvatarBodyCuda(const BodyModel& body) {
                         " outside [0, " + std::to_string(num_uv) + ")");
   }
   faces.upload(body.faces);
+  face_neighbors.upload(mesh_face_neighbors(body.faces.data(), num_faces, num_verts));
   uv_faces.upload(body.ft);
   uv.upload(body.vt);
   topology.num_verts = num_verts;
   topology.num_faces = num_faces;
   topology.num_uv = num_uv;
   topology.faces = faces.data();
+  topology.face_neighbors = face_neighbors.data();
   topology.uv = uv.empty() ? nullptr : uv.data();
   topology.uv_faces = uv_faces.empty() ? nullptr : uv_faces.data();
 }

@@ -15,11 +15,12 @@
 
 namespace haha::cuda {
 
-// The body's fixed topology on the device: faces, UV faces (ft) and UVs (vt). The
+// The body's fixed topology on the device: faces, UV faces (ft), UVs (vt) and the faces'
+// neighbours (for antialiasing). The
 // constructor checks the index ranges on the host (haha::Error naming body.source).
 // `topology` points into the device buffers: pass &body.topology as the request's body.
 struct AvatarBodyCuda {
-  DeviceBuffer<int32_t> faces, uv_faces;
+  DeviceBuffer<int32_t> faces, uv_faces, face_neighbors;
   DeviceBuffer<float> uv;
   BodyTopology topology;
   explicit AvatarBodyCuda(const BodyModel& body);

@@ -24,8 +24,10 @@ void validate_synth_options(const SynthOptions& o) {
     fail("--frames", std::to_string(o.train_frames) + " is outside [1, 100000]");
   if (o.test_frames < 0 || o.test_frames > 100000)
     fail("--test-frames", std::to_string(o.test_frames) + " is outside [0, 100000]");
-  if (!std::isfinite(o.fit_noise) || o.fit_noise < 0 || o.fit_noise > 1)
-    fail("--fit-noise", "must be in [0, 1] (radians for poses, metres for transl)");
+  if (!std::isfinite(o.fit_noise.pose) || o.fit_noise.pose < 0 || o.fit_noise.pose > 1)
+    fail("--fit-noise-pose", "must be in [0, 1] radians");
+  if (!std::isfinite(o.fit_noise.transl) || o.fit_noise.transl < 0 || o.fit_noise.transl > 1)
+    fail("--fit-noise-transl", "must be in [0, 1] metres");
   if (o.supersample < 1 || o.supersample > 8) fail("--supersample", "must be in [1, 8]");
   // One supersampled raster holds ~24 bytes per subsample (3.6 GB at 12288 x 12288).
   if (o.size * o.supersample > 12288)
@@ -122,8 +124,9 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
   }
   DirGuard guard{stage};
   char src[256];
-  std::snprintf(src, sizeof src, "haha synth: procedural clothed subject (hair, ponytail, skirt), seed %llu, fit noise %g",
-                static_cast<unsigned long long>(opt.seed), opt.fit_noise);
+  std::snprintf(src, sizeof src,
+                "haha synth: procedural clothed subject (hair, ponytail, skirt), seed %llu, fit noise %g rad / %g m",
+                static_cast<unsigned long long>(opt.seed), opt.fit_noise.pose, opt.fit_noise.transl);
   DatasetWriter writer(stage.string(), opt.size, opt.size, 30.0, "neutral",
                        std::string(src) + "; body: " + (body.source.empty() ? std::string("?") : body.source));
 

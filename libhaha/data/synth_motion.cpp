@@ -206,10 +206,11 @@ double pose_distance(const SmplxParams& a, const SmplxParams& b) {
   return worst;
 }
 
-std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, double sigma, uint64_t seed) {
-  if (!(sigma >= 0) || !std::isfinite(sigma)) fail("--fit-noise", "must be a finite value >= 0");
+std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, FitNoise sigma, uint64_t seed) {
+  if (!(sigma.pose >= 0) || !std::isfinite(sigma.pose)) fail("--fit-noise-pose", "must be a finite value >= 0");
+  if (!(sigma.transl >= 0) || !std::isfinite(sigma.transl)) fail("--fit-noise-transl", "must be a finite value >= 0");
   std::vector<SmplxParams> out = truth;
-  if (sigma == 0) return out;
+  if (sigma.pose == 0 && sigma.transl == 0) return out;
   std::mt19937_64 rng(seed * 0x9FB21C651E98DF25ull + 0xF17u);
   // Box-Muller on raw generator bits (std::normal_distribution differs between libraries).
   auto gauss = [&] {
@@ -219,9 +220,9 @@ std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, dou
   for (SmplxParams& p : out) {
     for (int j = 0; j < kNumJoints; ++j) {
       if (j == kLeftEye || j == kRightEye) continue;
-      for (int c = 0; c < 3; ++c) p.pose[3 * j + c] += float(sigma * gauss());
+      for (int c = 0; c < 3; ++c) p.pose[3 * j + c] += float(sigma.pose * gauss());
     }
-    for (float& t : p.transl) t += float(sigma * gauss());
+    for (float& t : p.transl) t += float(sigma.transl * gauss());
   }
   return out;
 }

@@ -97,9 +97,13 @@ SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject
 // articulated joints 1..54 (global orientation excluded: it is the viewpoint).
 double pose_distance(const SmplxParams& a, const SmplxParams& b);
 
-// Fit error imitation: Gaussian noise of standard deviation sigma added to every pose
-// value except the eye joints (radians) and to transl (metres). Deterministic for seed.
-std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, double sigma, uint64_t seed);
+// Fit error imitation: standard deviations of the Gaussian noise on every pose value but the
+// eye joints' (radians) and on transl (metres).
+struct FitNoise {
+  double pose = 0, transl = 0;
+};
+// Deterministic for seed; the same draws for any sigmas (only their scale changes).
+std::vector<SmplxParams> perturb_fits(const std::vector<SmplxParams>& truth, FitNoise sigma, uint64_t seed);
 
 // ---------------------------------------------------------------------------------------
 // Rendering.
@@ -159,7 +163,7 @@ struct SynthOptions {
   int train_frames = 40;
   int test_frames = 10;
   uint64_t seed = 0;
-  double fit_noise = 0;     // sigma of perturb_fits (0: fits are the true parameters)
+  FitNoise fit_noise;       // sigmas of perturb_fits (0: fits are the true parameters)
   int supersample = 3;      // subsamples per pixel side
   int texture_size = 0;     // 0: automatic (512 up to 256 px, 1024 up to 512 px, else 2048)
   double camera_distance = 2.8;

@@ -44,6 +44,13 @@ struct Cpu : CpuRenderBackend {
                                  const GaussianRasterOutputGrads<float>& dout, const GaussianGrads<float>& grads) {
     rasterize_gaussians_backward(in, cam, s, state, dout, grads);
   }
+  static void antialias(const AntialiasInputsT<float>& in, float* color_out, float* mask_out) {
+    haha::antialias(in, color_out, mask_out);
+  }
+  static void antialias_backward(const AntialiasInputsT<float>& in, const float* d_color_out, const float* d_mask_out,
+                                 float* d_color, float* d_verts) {
+    haha::antialias_backward(in, d_color_out, d_mask_out, d_color, nullptr, d_verts);
+  }
   static void merge(const MergeInputs& in, float* out) { haha::merge(in, out); }
   static void merge_backward(const MergeInputs& in, const float* d_out, const MergeGrads& grads) {
     haha::merge_backward(in, d_out, grads);
@@ -64,11 +71,14 @@ BodyTopology topology_of(const BodyModel& body) {
 }
 
 AvatarViews::AvatarViews(const Avatar& a)
-    : body(topology_of(a.body)),
+    : face_neighbors(mesh_face_neighbors(a.body.faces.data(), a.body.num_faces, a.body.num_verts)),
+      body(topology_of(a.body)),
       gaussians{a.gaussians.size(),          a.gaussians.face.data(),  a.gaussians.offset.data(),
                 a.gaussians.rotation.data(), a.gaussians.scale.data(), a.gaussians.color.data(),
                 a.gaussians.opacity.data()},
-      texture{a.texture.width, a.texture.height, 3, a.texture.rgb.data()} {}
+      texture{a.texture.width, a.texture.height, 3, a.texture.rgb.data()} {
+  body.face_neighbors = face_neighbors.data();
+}
 
 AvatarRenderRequest avatar_request(const Avatar& a, const AvatarViews& views, const Camera& cam, const float* verts,
                                    bool mesh, bool gaussians) {

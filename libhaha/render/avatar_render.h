@@ -34,6 +34,7 @@ struct BodyTopology {
   const int32_t* faces = nullptr;     // (F, 3)
   const float* uv = nullptr;          // (T, 2)
   const int32_t* uv_faces = nullptr;  // (F, 3); null: no UV map (no textured mesh)
+  const int32_t* face_neighbors = nullptr;  // (F, 3) mesh_face_neighbors; needed for antialias
 };
 BodyTopology topology_of(const BodyModel& body);  // host pointers into `body`
 
@@ -67,6 +68,9 @@ struct AvatarRenderRequest {
   const TextureView* texture = nullptr;
   float depth_margin = 0.0f;        // Gaussians in front where centre z <= D + margin
   float background[3] = {0, 0, 0};
+  // Antialias the silhouette of the mesh rendered from `texture` (render/mesh_antialias.h):
+  // partial coverage at its edges, and a gradient of the image to the vertices there.
+  bool antialias = false;
 };
 
 // Gradient outputs, all optional, all ACCUMULATED (+=).
@@ -84,10 +88,13 @@ struct AvatarRenderGrads {
 // Host views of a trained avatar (body topology, Gaussians, texture) for requests; keep it
 // alive while a request made from it is used.
 struct AvatarViews {
+  std::vector<int32_t> face_neighbors;  // body.face_neighbors points here
   BodyTopology body;
   GaussianSetView gaussians;
   TextureView texture;
   explicit AvatarViews(const Avatar& a);
+  AvatarViews(const AvatarViews&) = delete;
+  AvatarViews& operator=(const AvatarViews&) = delete;
 };
 // A request for avatar `a` posed as `verts`, with its face-scale divisor and depth margin;
 // `mesh` / `gaussians` choose the layers; background black.
@@ -109,9 +116,10 @@ struct AvatarRenderBuffersT {
   Buffer<float> means, quats, scales;        // (N, 3/4/3) posed Gaussians
   typename Backend::RasterState raster;
   typename Backend::PoseScratch pose;
+  Buffer<float> aa_color, aa_mask;           // (P, 3), (P) the antialiased mesh layer
   // backward scratch
-  Buffer<float> depth_tmp, d_color_front, d_alpha, d_mesh_color, d_means, d_quats, d_scales, d_opacity, d_color,
-      d_verts_scratch;
+  Buffer<float> depth_tmp, d_color_front, d_alpha, d_mesh_color, d_mesh_mask, d_mesh_color_raw, d_means, d_quats,
+      d_scales, d_opacity, d_color, d_verts_scratch;
 };
 
 // The CPU backend: OpenMP threads over host memory.

@@ -10,6 +10,7 @@
 //   pose_gaussians(verts, faces, F, divisor, local, means, quats, scales, PoseScratch&)
 //                                                       and pose_gaussians_backward
 //   rasterize(in, cam, settings, RasterState&, out)     and rasterize_backward
+//   antialias(AntialiasInputsT<float>, color, mask)      and antialias_backward
 //   merge(MergeInputs, out)                             and merge_backward
 // with the semantics of the CPU functions of the same names (render/, body/).
 #pragma once
@@ -17,6 +18,7 @@
 #include "core/error.h"
 #include "render/avatar_render.h"
 #include "render/merge.h"
+#include "render/mesh_antialias.h"
 
 namespace haha::avatar_render_detail {
 
@@ -33,7 +35,26 @@ inline void check_request(const AvatarRenderRequest& req, const char* fn) {
   if (req.texture && !req.mesh_layer) {
     if (req.texture->channels != 3) fail(fn, "the texture must have 3 channels");
     if (!req.body->uv_faces || !req.body->uv) fail(fn, "the body has no UV map");
+    if (req.antialias && !req.body->face_neighbors) fail(fn, "antialias needs the body's face neighbours");
   }
+}
+
+// Whether the mesh is rendered here and antialiased.
+inline bool antialiased(const AvatarRenderRequest& req) { return req.antialias && req.texture && !req.mesh_layer; }
+
+// The antialiasing pass over the mesh layer just rendered (colour and coverage before it).
+template <class Buf>
+AntialiasInputsT<float> aa_inputs(const AvatarRenderRequest& req, const Buf& buf) {
+  AntialiasInputsT<float> in;
+  in.camera = *req.camera;
+  in.mesh = {req.verts, req.body->num_verts, req.body->faces, req.body->num_faces};
+  in.neighbors = req.body->face_neighbors;
+  in.tri = buf.mesh_render.raster.tri.data();
+  in.depth = buf.mesh_render.raster.depth.data();
+  in.color = buf.mesh_render.color.data();
+  in.mask = buf.mesh_render.raster.mask.data();
+  in.channels = 3;
+  return in;
 }
 
 inline MeshRenderInput mesh_input(const AvatarRenderRequest& req) {
@@ -107,6 +128,13 @@ void render(const AvatarRenderRequest& req, Buf& buf, const char* fn) {
     buf.mesh.depth = buf.mesh_render.raster.depth.data();
     buf.mesh.color = buf.mesh_render.color.data();
     buf.mesh.mask = buf.mesh_render.raster.mask.data();
+    if (antialiased(req)) {
+      buf.aa_color.resize(3 * size_t(P));
+      buf.aa_mask.resize(size_t(P));
+      B::antialias(aa_inputs(req, buf), buf.aa_color.data(), buf.aa_mask.data());
+      buf.mesh.color = buf.aa_color.data();
+      buf.mesh.mask = buf.aa_mask.data();
+    }
   }
   if (buf.mesh.depth && req.depth_margin != 0.0f) {
     buf.depth_tmp.resize(size_t(P));
@@ -153,6 +181,10 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
   if (mesh_grad) {
     buf.d_mesh_color.resize(3 * size_t(P));
     mg.mesh_color = buf.d_mesh_color.data();
+    if (antialiased(req) && grads.verts) {  // the coverage moves with the silhouette
+      buf.d_mesh_mask.resize(size_t(P));
+      mg.mesh_mask = buf.d_mesh_mask.data();
+    }
   }
   B::merge_backward(merge_inputs(req, buf), d_image, mg);
 
@@ -191,8 +223,16 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
                                  grads.rotation, grads.scale, buf.pose);
     }
   }
-  if (mesh_grad)
-    B::render_mesh_backward(cam, mesh_input(req), buf.mesh_render, buf.d_mesh_color.data(), grads.texture, grads.verts);
+  if (mesh_grad) {
+    const float* d_color = buf.d_mesh_color.data();
+    if (antialiased(req)) {
+      B::assign_zero(buf.d_mesh_color_raw, 3 * size_t(P));
+      B::antialias_backward(aa_inputs(req, buf), buf.d_mesh_color.data(), mg.mesh_mask, buf.d_mesh_color_raw.data(),
+                            grads.verts);
+      d_color = buf.d_mesh_color_raw.data();
+    }
+    B::render_mesh_backward(cam, mesh_input(req), buf.mesh_render, d_color, grads.texture, grads.verts);
+  }
 }
 
 }  // namespace haha::avatar_render_detail

@@ -44,7 +44,7 @@ namespace {
 
 template <class T>
 void check_inputs(const AntialiasInputsT<T>& in, const char* fn) {
-  if (!in.camera || in.camera->width <= 0 || in.camera->height <= 0) fail(fn, "no camera");
+  if (in.camera.width <= 0 || in.camera.height <= 0) fail(fn, "no camera");
   if (!in.tri || !in.depth || !in.color || !in.mask || !in.neighbors || (in.mesh.num_faces > 0 && !in.mesh.faces) ||
       (in.mesh.num_verts > 0 && !in.mesh.verts))
     fail(fn, "missing input buffers");
@@ -56,7 +56,7 @@ void check_inputs(const AntialiasInputsT<T>& in, const char* fn) {
 template <class T>
 void antialias(const AntialiasInputsT<T>& in, NoDeduce<T>* color_out, NoDeduce<T>* mask_out) {
   check_inputs(in, "antialias");
-  const int W = in.camera->width, H = in.camera->height, C = in.channels;
+  const int W = in.camera.width, H = in.camera.height, C = in.channels;
   detail::parallel_items(int64_t(W) * H, [&](int64_t p) {
     antialias_pixel(in, int(p % W), int(p / W), color_out + p * C, mask_out + p);
   });
@@ -67,7 +67,7 @@ void antialias_backward(const AntialiasInputsT<T>& in, const NoDeduce<T>* grad_c
                         const NoDeduce<T>* grad_mask_out, NoDeduce<T>* grad_color, NoDeduce<T>* grad_mask,
                         NoDeduce<T>* grad_verts) {
   check_inputs(in, "antialias_backward");
-  const int W = in.camera->width, H = in.camera->height, C = in.channels;
+  const int W = in.camera.width, H = in.camera.height, C = in.channels;
   const int64_t P = int64_t(W) * H, V = in.mesh.num_verts;
   // One packed buffer (colour | mask | vertices) so a single deterministic scatter serves all.
   const int64_t oc = 0, om = P * C, ov = om + P, size = ov + 3 * V;

@@ -49,7 +49,7 @@ std::vector<int32_t> mesh_face_neighbors(const int32_t* faces, int num_faces, in
 
 template <class T>
 struct AntialiasInputsT {
-  const CameraT<T>* camera = nullptr;
+  CameraT<T> camera;                   // by value: the struct is passed to device kernels as is
   MeshViewT<T> mesh;                   // world-space vertices and faces of the raster
   const int32_t* neighbors = nullptr;  // (F, 3) from mesh_face_neighbors
   const int32_t* tri = nullptr;        // (P) visible triangle per pixel, -1 = none
@@ -115,7 +115,7 @@ HAHA_HD void edge_crossing_backward(const CameraT<T>& cam, Vec3<T> a, Vec3<T> b,
 
 }  // namespace aa_detail
 
-constexpr int kAaMaxWalk = 6;  // faces crossed between two pixel centres before giving up
+constexpr int kAaMaxWalk = 32;  // faces crossed between two pixel centres before giving up
 
 // Coverage below which a pixel's colour is its own (M' = P' / m' is undefined at m' = 0).
 template <class T>
@@ -138,7 +138,7 @@ struct AaContribution {
 template <class T>
 HAHA_HD AaContribution<T> aa_contribution(const AntialiasInputsT<T>& in, int x, int y, int k) {
   AaContribution<T> c;
-  const CameraT<T>& cam = *in.camera;
+  const CameraT<T>& cam = in.camera;
   int dx, dy;
   aa_detail::neighbour(k, &dx, &dy);
   const int sx = x + dx, sy = y + dy;
@@ -211,7 +211,7 @@ HAHA_HD AaContribution<T> aa_contribution(const AntialiasInputsT<T>& in, int x, 
 // Row blend of pixel (x, y) of the premultiplied layer: Ph (C) and mh.
 template <class T>
 HAHA_HD void aa_row_blend(const AntialiasInputsT<T>& in, int x, int y, T* Ph, T* mh, AaContribution<T> c[2]) {
-  const int W = in.camera->width, C = in.channels;
+  const int W = in.camera.width, C = in.channels;
   const int64_t r = int64_t(y) * W + x;
   c[0] = aa_contribution(in, x, y, 0);
   c[1] = aa_contribution(in, x, y, 1);
@@ -247,7 +247,7 @@ HAHA_HD void aa_column(const AntialiasInputsT<T>& in, int x, int y, AaColumn<T>&
 template <class T>
 HAHA_HD void antialias_pixel(const AntialiasInputsT<T>& in, int x, int y, T* color_out, T* mask_out) {
   const int C = in.channels;
-  const int64_t r = int64_t(y) * in.camera->width + x;
+  const int64_t r = int64_t(y) * in.camera.width + x;
   AaColumn<T> col;
   aa_column(in, x, y, col);
   const T own = T(1) - col.c[0].w - col.c[1].w;
@@ -266,7 +266,8 @@ HAHA_HD void antialias_pixel(const AntialiasInputsT<T>& in, int x, int y, T* col
 // Gradient of the crossing weight c (dL/dw = gw) to the edge's world-space vertices.
 template <class T, class Add>
 HAHA_HD void aa_weight_backward(const AntialiasInputsT<T>& in, const AaContribution<T>& c, T gw, T* gverts, Add add) {
-  const CameraT<T>& cam = *in.camera;
+  if (!gverts) return;
+  const CameraT<T>& cam = in.camera;
   const Vec3<T> a = cam.to_camera(Vec3<T>::load(in.mesh.verts + 3 * c.va));
   const Vec3<T> b = cam.to_camera(Vec3<T>::load(in.mesh.verts + 3 * c.vb));
   Vec3<T> ga, gb;
@@ -290,10 +291,10 @@ HAHA_HD void aa_row_blend_backward(const AntialiasInputsT<T>& in, int64_t q, con
   auto to_layer = [&](int64_t px, T a) {
     T gm = gmh * a;
     for (int ch = 0; ch < C; ++ch) {
-      add(&gcolor[px * C + ch], gPh[ch] * a * in.mask[px]);
+      if (gcolor) add(&gcolor[px * C + ch], gPh[ch] * a * in.mask[px]);
       gm += gPh[ch] * a * in.color[px * C + ch];
     }
-    add(&gmask[px], gm);
+    if (gmask) add(&gmask[px], gm);
   };
   to_layer(q, T(1) - c[0].w - c[1].w);
   for (int k = 0; k < 2; ++k) {
@@ -308,11 +309,11 @@ HAHA_HD void aa_row_blend_backward(const AntialiasInputsT<T>& in, int64_t q, con
 }
 
 // Backward of pixel (x, y) for dL/dcolor_out (C) and dL/dmask_out (g_mask_out): scatter-adds
-// into gcolor (P, C), gmask (P) and gverts (V, 3, world) through `add`.
+// into gcolor (P, C), gmask (P) and gverts (V, 3, world) through `add`; any may be null.
 template <class T, class Add = PlainAdd>
 HAHA_HD void antialias_backward_pixel(const AntialiasInputsT<T>& in, int x, int y, const T* g_color_out,
                                       T g_mask_out, T* gcolor, T* gmask, T* gverts, Add add = {}) {
-  const int W = in.camera->width, C = in.channels;
+  const int W = in.camera.width, C = in.channels;
   const int64_t r = int64_t(y) * W + x;
   AaColumn<T> col;
   aa_column(in, x, y, col);
@@ -331,7 +332,7 @@ HAHA_HD void antialias_backward_pixel(const AntialiasInputsT<T>& in, int x, int 
       gm -= g_color_out[ch] * (p / m) / m;
     } else {
       gP[ch] = T(0);
-      add(&gcolor[r * C + ch], g_color_out[ch]);
+      if (gcolor) add(&gcolor[r * C + ch], g_color_out[ch]);
     }
   }
   // Column blend: P' = own Ph(r) + w_up Ph(up) + w_down Ph(down).

@@ -65,6 +65,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
 
     AvatarRenderRequest req = avatar_request(a, views, f.camera, verts.data(), v.mesh, v.gaussians);
+    req.antialias = opt.antialias;
     for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
 
     FrameEval fe;

@@ -32,6 +32,10 @@ struct EvalOptions {
   bool premultiplied = false;      // see TrainInput
   LpipsNet<float>* lpips = nullptr;  // AlexNet LPIPS metric; null = unavailable
   int keep_images = 0;             // frames (from the first) whose layers are kept for pictures
+  // Antialiased mesh silhouette (render/mesh_antialias.h) in test-time pose optimisation and
+  // the final render: partial coverage at the mesh's edges, and a silhouette gradient to the
+  // pose.
+  bool antialias = false;
 };
 
 struct FrameEval {

@@ -34,6 +34,7 @@
 #include "support/cuda_scene.h"
 #include "render/gaussian_raster.h"
 #include "render/merge.h"
+#include "render/mesh_antialias.h"
 #include "render/mesh_raster.h"
 #include "render/render_mesh.h"
 #include "render/texture.h"
@@ -721,16 +722,18 @@ TEST(CudaParity, GatherRows) {
 
 // ------------------------------------------------------------------ the avatar render chain
 
-TEST(CudaParity, AvatarRenderForwardBackward) {
-  REQUIRE_CUDA();
+void avatar_render_parity(bool antialias) {
   const testgpu::AvatarScene s = testgpu::make_avatar_scene(BodyResolution::low, 3000, 160, 150, 12, 128);
   const int P = s.cam.width * s.cam.height, V = s.body.num_verts, N = s.num_gaussians();
   const GaussianSetView gh = s.gaussians();
   const TextureView th = s.texture_view();
   AvatarRenderRequest rc;
   rc.camera = &s.cam;
-  const BodyTopology topology = topology_of(s.body);
+  BodyTopology topology = topology_of(s.body);
+  const std::vector<int32_t> neighbors = mesh_face_neighbors(s.body.faces.data(), s.body.num_faces, V);
+  topology.face_neighbors = neighbors.data();
   rc.body = &topology;
+  rc.antialias = antialias;
   rc.verts = s.verts.data();
   rc.face_scale_divisor = s.divisor;
   rc.gaussians = &gh;
@@ -755,6 +758,7 @@ TEST(CudaParity, AvatarRenderForwardBackward) {
   rg.gaussians = &gd;
   rg.texture = &td;
   rg.depth_margin = 0.01f;
+  rg.antialias = antialias;
   rg.background[0] = 1.0f;
   rg.background[1] = 0.5f;
   cuda::AvatarRenderCudaBuffers bg;
@@ -784,6 +788,18 @@ TEST(CudaParity, AvatarRenderForwardBackward) {
   expect_close("avatar d_opacity", gop, hop.to_host(), kGrad, frac);
   expect_close("avatar d_texture", gt, ht.to_host(), kGrad, kCutFrac);
   expect_close("avatar means2d accum", acc, hacc.to_host(), kGrad, frac);
+}
+
+TEST(CudaParity, AvatarRenderForwardBackward) {
+  REQUIRE_CUDA();
+  avatar_render_parity(false);
+}
+
+// The antialiased mesh silhouette (render/mesh_antialias.h): same orchestration, the
+// antialiasing kernels on both sides; its vertex gradient joins d_verts.
+TEST(CudaParity, AvatarRenderAntialiasedForwardBackward) {
+  REQUIRE_CUDA();
+  avatar_render_parity(true);
 }
 
 }  // namespace

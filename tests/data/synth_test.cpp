@@ -399,11 +399,11 @@ TEST(SynthMotion, FitNoiseHasTheRequestedSpreadAndSparesTheEyes) {
   const SynthMotion m = make_synth_motion(low_body(), low_subject(), 40, 10, 0);
   std::vector<SmplxParams> truth = m.train;
   truth.insert(truth.end(), m.test.begin(), m.test.end());
-  EXPECT_EQ(perturb_fits(truth, 0, 1)[3].pose, truth[3].pose);
+  EXPECT_EQ(perturb_fits(truth, {0, 0}, 1)[3].pose, truth[3].pose);
   const double sigma = 0.03;
-  const auto noisy = perturb_fits(truth, sigma, 1);
-  const auto again = perturb_fits(truth, sigma, 1);
-  const auto other = perturb_fits(truth, sigma, 2);
+  const auto noisy = perturb_fits(truth, {sigma, sigma}, 1);
+  const auto again = perturb_fits(truth, {sigma, sigma}, 1);
+  const auto other = perturb_fits(truth, {sigma, sigma}, 2);
   double ss = 0;
   int n = 0;
   for (size_t f = 0; f < truth.size(); ++f) {
@@ -422,8 +422,17 @@ TEST(SynthMotion, FitNoiseHasTheRequestedSpreadAndSparesTheEyes) {
   }
   // n = 8100 samples: the standard deviation estimate is within ~1% (1 sigma) of sigma.
   EXPECT_NEAR(std::sqrt(ss / n), sigma, 0.06 * sigma);
-  expect_error([&] { perturb_fits(truth, -1, 0); }, "--fit-noise");
-  expect_error([&] { perturb_fits(truth, NAN, 0); }, "--fit-noise");
+  expect_error([&] { perturb_fits(truth, {-1, 0}, 0); }, "--fit-noise-pose");
+  expect_error([&] { perturb_fits(truth, {0, NAN}, 0); }, "--fit-noise-transl");
+  // Pose and translation noise are separate: the same draws, each scaled by its sigma.
+  const auto pose_only = perturb_fits(truth, {sigma, 0}, 1), transl_only = perturb_fits(truth, {0, 0.5 * sigma}, 1);
+  for (size_t f = 0; f < truth.size(); ++f) {
+    EXPECT_EQ(pose_only[f].pose, noisy[f].pose);
+    EXPECT_EQ(pose_only[f].transl, truth[f].transl);
+    EXPECT_EQ(transl_only[f].pose, truth[f].pose);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(transl_only[f].transl[c] - truth[f].transl[c], 0.5 * (noisy[f].transl[c] - truth[f].transl[c]), 1e-6);
+  }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -534,7 +543,7 @@ class SynthDataset : public TempDir {};
 
 TEST_F(SynthDataset, ReadsBackWithMatchingCountsAndConsistentMasks) {
   SynthOptions o = small_options();
-  o.fit_noise = 0.02;
+  o.fit_noise = {0.02, 0.02};
   const SynthSummary sum = write_synth_dataset(path("ds"), low_body(), o, true);
   EXPECT_GE(sum.min_pose_gap, kSynthMinPoseGap);
   const Dataset ds = read_dataset(path("ds"));
@@ -627,8 +636,8 @@ TEST(SynthOptionsTest, BadOptionsAreClearErrors) {
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 0; })); }, "--size");
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.train_frames = 0; })); }, "--frames");
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.test_frames = -1; })); }, "--test-frames");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise = -0.1; })); }, "--fit-noise");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise = NAN; })); }, "--fit-noise");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise.pose = -0.1; })); }, "--fit-noise-pose");
+  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise.transl = NAN; })); }, "--fit-noise-transl");
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.supersample = 0; })); }, "--supersample");
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.texture_size = 3; })); }, "--texture-size");
   expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 4096, o.supersample = 4; })); },

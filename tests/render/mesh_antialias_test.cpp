@@ -65,7 +65,7 @@ struct Scene {
   }
   AntialiasInputsT<double> inputs(const std::vector<double>& verts, const CameraT<double>& cd) const {
     AntialiasInputsT<double> in;
-    in.camera = &cd;
+    in.camera = cd;
     in.mesh = {verts.data(), mesh.num_verts(), mesh.faces.data(), mesh.num_faces()};
     in.neighbors = nbr.data();
     in.tri = raster.tri.data();
@@ -278,7 +278,7 @@ TEST(MeshAntialias, FloatMatchesDouble) {
   antialias(sc.inputs(verts, cd), cold.data(), md.data());
   std::vector<float> colorf(sc.color.begin(), sc.color.end()), maskf(sc.mask.begin(), sc.mask.end());
   AntialiasInputsT<float> in;
-  in.camera = &sc.cam;
+  in.camera = sc.cam;
   in.mesh = {sc.mesh.verts.data(), sc.mesh.num_verts(), sc.mesh.faces.data(), sc.mesh.num_faces()};
   in.neighbors = sc.nbr.data();
   in.tri = sc.raster.tri.data();

@@ -11,6 +11,7 @@
 
 #include "body/lbs.h"
 #include "render/avatar_render.h"
+#include "render/mesh_antialias.h"
 #include "train/image_loss.h"
 #include "support/train_test_scene.h"
 
@@ -29,6 +30,7 @@ struct Scene {
   std::vector<float> verts;
   std::vector<float> weights;  // fixed random image weights: L = sum w . I + sum wa . A
   std::vector<float> walpha;
+  std::vector<int32_t> neighbors = mesh_face_neighbors(a.body.faces.data(), a.body.num_faces, a.body.num_verts);
   explicit Scene(bool few = false) {
     a.texture.rgb[5] = 0.9f;
     Lbs<float> lbs(a.body);
@@ -211,6 +213,87 @@ void run_case(bool mesh, bool gauss) {
     for (size_t i = 0; i < v.size(); ++i) v[i] += h * d[i];
     return full(v, g, s.a.texture.rgb);
   }, 1e-4f, 7);
+}
+
+// The antialiased mesh in the merged render: the orchestration's forward and backward equal
+// the pieces composed by hand (render_mesh -> antialias -> merge over the background, and
+// back through merge, antialias_backward and render_mesh_backward), each of which has its
+// own finite-difference test in double. The antialiased layer has partly covered pixels and
+// its vertex gradient differs from the hard silhouette's (the silhouette's share).
+TEST(AvatarRender, AntialiasedMeshMatchesThePiecesComposed) {
+  Scene s;
+  const int P = kSize * kSize;
+  const TextureView tv{s.a.texture.width, s.a.texture.height, 3, s.a.texture.rgb.data()};
+  AvatarRenderRequest req;
+  req.camera = &s.cam;
+  BodyTopology topology = topology_of(s.a.body);
+  topology.face_neighbors = s.neighbors.data();
+  req.body = &topology;
+  req.verts = s.verts.data();
+  req.texture = &tv;
+  req.antialias = true;
+  const float bg[3] = {0.2f, 0.0f, 0.7f};
+  for (int c = 0; c < 3; ++c) req.background[c] = bg[c];
+  AvatarRenderBuffers buf;
+  render_avatar(req, buf);
+  std::vector<float> dv(s.verts.size(), 0.0f);
+  AvatarRenderGrads gr;
+  gr.verts = dv.data();
+  render_avatar_backward(req, buf, s.weights.data(), nullptr, nullptr, gr);
+
+  // By hand.
+  MeshRenderInput in;
+  in.verts = s.verts.data();
+  in.num_verts = s.a.body.num_verts;
+  in.faces = s.a.body.faces.data();
+  in.num_faces = s.a.body.num_faces;
+  in.uv = s.a.body.vt.data();
+  in.num_uv = s.a.body.num_uv();
+  in.uv_faces = s.a.body.ft.data();
+  in.texture = tv;
+  MeshRender mr;
+  render_mesh(s.cam, in, mr);
+  AntialiasInputsT<float> ai;
+  ai.camera = s.cam;
+  ai.mesh = {s.verts.data(), in.num_verts, in.faces, in.num_faces};
+  ai.neighbors = s.neighbors.data();
+  ai.tri = mr.raster.tri.data();
+  ai.depth = mr.raster.depth.data();
+  ai.color = mr.color.data();
+  ai.mask = mr.raster.mask.data();
+  std::vector<float> M(3 * size_t(P)), m(static_cast<size_t>(P)), image(3 * size_t(P));
+  antialias(ai, M.data(), m.data());
+  int partial = 0;
+  for (int p = 0; p < P; ++p) {
+    partial += m[size_t(p)] > 0 && m[size_t(p)] < 1;
+    for (int c = 0; c < 3; ++c) image[3 * size_t(p) + c] = m[size_t(p)] * M[3 * size_t(p) + c] + (1 - m[size_t(p)]) * bg[c];
+  }
+  EXPECT_GT(partial, 30) << "the silhouette is antialiased";
+  for (size_t i = 0; i < image.size(); ++i) ASSERT_NEAR(buf.image[i], image[i], 1e-6) << "image value " << i;
+  std::vector<float> dM(3 * size_t(P)), dm(static_cast<size_t>(P)), dcol(3 * size_t(P), 0.0f), dv_hand(s.verts.size(), 0.0f);
+  for (int p = 0; p < P; ++p) {
+    double g = 0;
+    for (int c = 0; c < 3; ++c) {
+      const float w = s.weights[3 * size_t(p) + c];
+      dM[3 * size_t(p) + c] = m[size_t(p)] * w;
+      g += w * (M[3 * size_t(p) + c] - bg[c]);
+    }
+    dm[size_t(p)] = float(g);
+  }
+  antialias_backward(ai, dM.data(), dm.data(), dcol.data(), nullptr, dv_hand.data());
+  render_mesh_backward(s.cam, in, mr, dcol.data(), nullptr, nullptr, dv_hand.data());
+  double scale = 0, diff_hard = 0;
+  for (float x : dv_hand) scale = std::max(scale, double(std::fabs(x)));
+  for (size_t i = 0; i < dv.size(); ++i) EXPECT_NEAR(dv[i], dv_hand[i], 1e-4 * scale) << "vertex coordinate " << i;
+
+  std::vector<float> dv_hard(s.verts.size(), 0.0f);
+  req.antialias = false;
+  AvatarRenderBuffers hard;
+  render_avatar(req, hard);
+  gr.verts = dv_hard.data();
+  render_avatar_backward(req, hard, s.weights.data(), nullptr, nullptr, gr);
+  for (size_t i = 0; i < dv.size(); ++i) diff_hard = std::max(diff_hard, double(std::fabs(dv[i] - dv_hard[i])));
+  EXPECT_GT(diff_hard, 0.1 * scale) << "the silhouette adds to the vertex gradient";
 }
 
 TEST(AvatarRender, GaussiansOnlyGradients) { run_case(false, true); }
