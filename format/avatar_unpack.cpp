@@ -300,14 +300,16 @@ class AvatarReader {
     const std::string type = as_string(member(*pc, "componentType", where_, what), where_, what + ".componentType");
     const size_t count = size_t(V_) * 3 * kNumPoseFeatures;
     const glb::ByteSpan s = rd_.view(*pc, "bufferView", "crc32", what);
+    // The byte length is checked before allocating: the count comes from the vertex count.
+    const size_t bytes_per_value = type == "float32" ? 4 : (type == "int16" ? 2 : 0);
+    if (bytes_per_value == 0) fail(where_, what + ".componentType: unknown '" + type + "'");
+    if (s.size != count * bytes_per_value) fail(where_, what + ": wrong byte length");
     std::vector<float>& posedirs = a_.body.posedirs;
     posedirs.resize(count);
     if (type == "float32") {
-      if (s.size != count * 4) fail(where_, what + ": wrong byte length");
       std::memcpy(posedirs.data(), s.data, count * 4);
       info_.sizes.pose_correctives = s.size;
-    } else if (type == "int16") {
-      if (s.size != count * 2) fail(where_, what + ": wrong byte length");
+    } else {
       const glb::ByteSpan sc = rd_.view(*pc, "scaleBufferView", "scaleCrc32", what);
       if (sc.size != size_t(kNumPoseFeatures) * 4) fail(where_, what + ": wrong scale byte length");
       std::vector<float> scale(kNumPoseFeatures);
@@ -318,8 +320,6 @@ class AvatarReader {
         posedirs[i] = float(q) * scale[i % kNumPoseFeatures];
       }
       info_.sizes.pose_correctives = s.size + sc.size;
-    } else {
-      fail(where_, what + ".componentType: unknown '" + type + "'");
     }
     info_.pose_correctives = type;
   }
