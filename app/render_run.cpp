@@ -44,13 +44,22 @@ void run_render(const RenderRunOptions& o) {
   if (o.motion.empty() && o.params.empty()) fail("render", "give --motion or --params");
   if (o.size <= 0 || o.size > 16384) fail("--size", "must be in 1..16384");
   if (o.every <= 0) fail("--every", "must be positive");
+  if (o.rate < 0 || !std::isfinite(o.rate) || o.rate > 10000) fail("--rate", "must be in (0, 10000] frames per second");
   if (!o.video.empty() && std::system("ffmpeg -version > /dev/null 2>&1") != 0) {
     fail("--video", "the ffmpeg command is not installed; render without --video or install ffmpeg");
   }
   std::unique_ptr<BodyModel> model;
   if (!o.model.empty()) model = std::make_unique<BodyModel>(load_body_model(o.model));
   const AvatarRuntime avatar = AvatarRuntime::load(o.avatar, model.get());
-  const Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
+  Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
+  PosedAvatar posed;
+  {
+    // AMASS motions are Z-up: turn them about the avatar's own rest pelvis (the posed
+    // pelvis at zero pose and zero transl), which depends on its baked-in shape.
+    avatar.repose(SmplxParams{}, posed);
+    motion_to_y_up(motion, {posed.joints[0], posed.joints[1], posed.joints[2]});
+  }
+  if (o.rate > 0) motion = resample_motion(motion, o.rate);
   std::vector<size_t> frames;
   for (size_t t = 0; t < motion.frames.size(); t += size_t(o.every)) {
     if (o.max_frames > 0 && int(frames.size()) >= o.max_frames) break;
@@ -58,7 +67,6 @@ void run_render(const RenderRunOptions& o) {
   }
   if (frames.empty()) fail(o.motion.empty() ? o.params : o.motion, "no frames");
 
-  PosedAvatar posed;
   Camera cam;
   if (!o.camera.empty()) {
     cam = read_camera_json(o.camera);

@@ -1,5 +1,6 @@
 // `haha render`: repose a packed avatar with a motion (AMASS-style or native SMPL-X
-// parameters) and render every frame with the merged mesh + Gaussian renderer
+// parameters; AMASS's Z-up world is turned to Y-up about the avatar's rest pelvis, and the
+// motion optionally resampled, io/motion.h) and render every frame with the merged mesh + Gaussian renderer
 // (format/avatar_loader.h) to DIR/frame_%05d.png, optionally encoding an mp4 with the
 // ffmpeg command-line tool.
 #pragma once
@@ -19,7 +20,8 @@ struct RenderRunOptions {
   float background[3] = {1, 1, 1};
   int size = 512;             // image side of the default camera
   int every = 1, max_frames = 0;
-  double fps = 0;             // video rate; 0: the motion's rate / every
+  double rate = 0;            // resample the motion to this many frames per second (0: keep its own rate)
+  double fps = 0;             // video rate; 0: the motion's rate (after --rate) / every
 };
 
 // Throws haha::Error naming the file or option for bad input.

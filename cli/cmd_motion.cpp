@@ -1,5 +1,6 @@
 // `haha motion`: writes a short procedural SMPL-X motion as an AMASS-style .npz (poses
-// (T, 165), trans (T, 3), mocap_frame_rate) for `haha render --motion`. The demo uses it to
+// (T, 165), trans (T, 3), mocap_frame_rate, up = (0, 1, 0): haha's Y-up world, unlike
+// AMASS's Z-up) for `haha render --motion`. The demo uses it to
 // repose a trained avatar with poses it never saw in training (the synthetic subject trains
 // on turning in place with lowered arms).
 //
@@ -108,6 +109,8 @@ HAHA_COMMAND(motion) {
     z.set("poses", haha::NpyArray::from(poses, {int64_t(T), haha::kNumPoseValues}));
     z.set("trans", haha::NpyArray::from(trans, {int64_t(T), 3}));
     z.set("mocap_frame_rate", haha::NpyArray::from(std::vector<double>{o->fps}, {}));
+    // Written in haha's Y-up world; without `up` readers take AMASS's Z-up (io/motion.h).
+    z.set("up", haha::NpyArray::from(std::vector<float>{0, 1, 0}, {3}));
     z.write(o->out);
     std::printf("%s: %zu frames of '%s' at %g fps\n", o->out.c_str(), T, o->kind.c_str(), o->fps);
   });

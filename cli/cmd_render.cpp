@@ -14,7 +14,7 @@ HAHA_COMMAND(render) {
   auto o = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("render", "Repose a .glb avatar with a motion and render the frames (PNG, optional mp4)");
   sub->add_option("avatar", o->run.avatar, "avatar .glb")->required();
-  auto* mo = sub->add_option("--motion", o->run.motion, "AMASS-style motion .npz (poses (T,165|156), trans, mocap_frame_rate)");
+  auto* mo = sub->add_option("--motion", o->run.motion, "AMASS-style motion .npz (poses (T,165|156), trans, mocap_frame_rate; Z-up unless it has `up`)");
   auto* po = sub->add_option("--params", o->run.params, "native SMPL-X parameter file (global_orient, body_pose, ...)");
   mo->excludes(po);
   sub->add_option("--out", o->run.out, "output directory for frame_%05d.png")->required();
@@ -26,6 +26,8 @@ HAHA_COMMAND(render) {
   sub->add_option("--max-frames", o->run.max_frames, "stop after this many rendered frames (0 = all)");
   sub->add_option("--background", o->background, "background colour r,g,b in [0, 1]")->capture_default_str();
   sub->add_option("--video", o->run.video, "also encode the frames as this .mp4 (needs the ffmpeg command)");
+  sub->add_option("--rate", o->run.rate,
+                  "resample the motion to this many frames per second (slerp); default: keep the mocap rate");
   sub->add_option("--fps", o->run.fps, "video frame rate (default: the motion's rate / every)");
   sub->callback([o] {
     const haha::Vec3f bg = haha::cli::parse_rgb(o->background);

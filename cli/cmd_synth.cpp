@@ -10,11 +10,13 @@
 #include "body/procedural_body.h"
 #include "command.h"
 #include "core/error.h"
+#include "data/dataset.h"
 #include "data/synth_subject.h"
+#include "data/xhumans_take.h"
 
 HAHA_COMMAND(synth) {
   struct Opts {
-    std::string out, body, resolution = "full";
+    std::string out, body, resolution = "full", xhumans;
     haha::SynthOptions o;
     double fit_noise = 0, fit_noise_pose = 0, fit_noise_transl = 0;
   };
@@ -37,6 +39,9 @@ HAHA_COMMAND(synth) {
   CLI::Option* transl_opt = sub->add_option("--fit-noise-transl", a->fit_noise_transl, "sigma on transl (m; default --fit-noise)");
   sub->add_option("--supersample", a->o.supersample, "subsamples per pixel side (anti-aliasing)")->capture_default_str();
   sub->add_option("--texture-size", a->o.texture_size, "body texture side (0: automatic)")->capture_default_str();
+  sub->add_option("--xhumans", a->xhumans,
+                  "also write the frames as X-Humans takes DIR/train/Take1 and DIR/test/Take2 (800 x 1200 colour PNGs, "
+                  "depth TIFFs, cameras.npz, SMPL-X pickles; --size at most 800) for haha convert --from xhumans");
   sub->callback([a, pose_opt, transl_opt] {
     const auto t0 = std::chrono::steady_clock::now();
     if (!(a->fit_noise >= 0 && a->fit_noise <= 1)) haha::fail("--fit-noise", "must be in [0, 1]");
@@ -54,6 +59,15 @@ HAHA_COMMAND(synth) {
     const haha::SynthSummary s = haha::write_synth_dataset(a->out, body, a->o, a->body.empty(), [](const std::string& line) {
       std::printf("  %s, %.2f s\n", line.c_str(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     });
+    if (!a->xhumans.empty()) {
+      haha::Dataset ds = haha::read_dataset(a->out, haha::LoadPixels::headers);
+      for (auto [split, take] : {std::pair{haha::Split::train, "train/Take1"}, std::pair{haha::Split::test, "test/Take2"}}) {
+        if (ds.indices(split).empty()) continue;
+        haha::write_xhumans_take(ds, split, body, a->xhumans + "/" + take);
+        std::printf("  X-Humans take %s/%s, %.2f s\n", a->xhumans.c_str(), take,
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      }
+    }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("%s: %d train + %d test frames, %dx%d, f = %.1f px, min test-train pose gap %.2f rad, %.2f s\n",
                 a->out.c_str(), s.train_frames, s.test_frames, a->o.size, a->o.size, double(s.camera.fx),

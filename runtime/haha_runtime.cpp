@@ -505,6 +505,22 @@ HAHA_API haha_status haha_motion_load(const char* path, haha_motion** out_motion
   });
 }
 
+HAHA_API haha_status haha_motion_load_for_avatar(const char* path, const haha_avatar* avatar, haha_motion** out_motion) {
+  return guarded("haha_motion_load_for_avatar", HAHA_ERROR_FORMAT, [&] {
+    require(path != nullptr, "haha_motion_load_for_avatar", "path is NULL");
+    require(avatar != nullptr, "haha_motion_load_for_avatar", "avatar is NULL");
+    require(out_motion != nullptr, "haha_motion_load_for_avatar", "out_motion is NULL");
+    check_readable(path);
+    haha::Motion m = classified(HAHA_ERROR_FORMAT, [&] { return haha::read_motion(path); });
+    if (m.frames.empty()) raise(HAHA_ERROR_FORMAT, std::string(path) + ": no frames");
+    // AMASS is Z-up: turn it about this avatar's rest pelvis (io/motion.h).
+    haha::PosedAvatar rest;
+    avatar->rt.repose(haha::SmplxParams{}, rest);
+    haha::motion_to_y_up(m, {rest.joints[0], rest.joints[1], rest.joints[2]});
+    *out_motion = new haha_motion{std::move(m)};
+  });
+}
+
 HAHA_API void haha_motion_free(haha_motion* motion) { delete motion; }
 
 HAHA_API haha_status haha_motion_info(const haha_motion* motion, int32_t* num_frames, double* fps) {

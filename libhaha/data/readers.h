@@ -11,6 +11,7 @@
 // cx, cy; resizing by s scales fx, fy, cx, cy by s (exact in the pixel-edge convention).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -59,14 +60,18 @@ Dataset read_xhumans(const XHumansOptions& opt);
 // extrinsic (4, 4) world -> camera, height, width), DIR/images/image_%04d.png,
 // DIR/masks/mask_%04d.npy ((H, W) bool / uint8 / float), DIR/poses/anim_nerf_{train,test}.npz
 // (SMPL: betas (1, 10) or (10,), global_orient (N, 3), body_pose (N, 69) (or (N, 63)), transl (N, 3)),
-// row i of a split = i-th frame of its FrameRange over the sorted images. SMPL joints
-// 0-21 mean the same as SMPL-X's: body_pose[:63] is kept, SMPL's hand joints 22/23 are
-// dropped, SMPL-X hands/jaw/eyes are at rest (zero, flat hand mean). SMPL betas live in a
-// different shape space and are not carried over (SMPL-X betas start at zero; training
-// fits them). The val split is not read.
+// row i of a split = i-th frame of its FrameRange over the sorted images. The poses are
+// SMPL fits: SMPL and SMPL-X differ in template and root joint, so their numbers are never
+// copied into SMPL-X. Every selected frame's SMPL parameters (io/smpl_model_io.h
+// smpl_params layout: SMPL joints 22/23 in slots 25/40; (N, 63) body poses leave them at
+// rest; the file's betas) go to `fit_smpl` in frame order, which returns their SMPL-X
+// parameters (app/smpl_fit.h does it with the user's SMPL and SMPL-X models). Without
+// `fit_smpl` the reader refuses, naming the missing SMPL model. The val split is not read.
 struct PeopleSnapshotOptions : ConvertOptions {
   std::string dir;
   FrameRange train{0, 456, 4}, test{456, 676, 4};  // InstantAvatar's male-3-casual split
+  std::function<std::vector<SmplxParams>(const std::vector<SmplxParams>& smpl, const std::vector<int>& source_frames)>
+      fit_smpl;
 };
 Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt);
 

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "data/readers.h"
 #include "data/readers_common.h"
+#include "io/smpl_model_io.h"
 
 namespace haha {
 
@@ -16,6 +17,9 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
   const fs::path dir(opt.dir);
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) fail(opt.dir, "no such PeopleSnapshot directory");
+  if (!opt.fit_smpl)
+    fail(opt.dir, "its poses are SMPL fits: converting them needs the SMPL body model (--smpl-model SMPL_NEUTRAL.npz) "
+                  "and the SMPL-X model (--model) to fit SMPL-X to them");
   const std::string image_dir = (dir / "images").string(), mask_dir = (dir / "masks").string();
   const std::string cam_path = (dir / "cameras.npz").string();
 
@@ -62,6 +66,8 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
   const Camera cam = tr.apply(src_cam);
   std::vector<std::pair<std::string, std::string>> files;
   std::set<int> used;
+  std::vector<SmplxParams> smpl;
+  std::vector<int> source_frames;
 
   for (Split split : {Split::train, Split::test}) {
     const FrameRange& range = split == Split::train ? opt.train : opt.test;
@@ -84,7 +90,13 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
     const int64_t bw = bp.ndim() == 2 && bp.shape[1] == 63 ? 63 : 69;
     const std::vector<double> body = npz_numbers(poses, "body_pose", {n, bw});
     const std::vector<double> transl = npz_numbers(poses, "transl", {n, 3});
-    if (poses.has("betas")) npz_numbers(poses, "betas", poses.get("betas").shape);  // checked, not used: SMPL shape space
+    std::vector<float> betas;  // SMPL shape space: given to the fit, which finds SMPL-X's
+    if (poses.has("betas")) {
+      const NpyArray& b = poses.get("betas");
+      if (b.size() > 300 || (b.ndim() == 2 && b.shape[0] != 1) || b.ndim() > 2)
+        fail(npz_path + ": betas", "shape " + shape_string(b.shape) + ", expected (1, B) or (B,)");
+      for (double v : npz_numbers(poses, "betas", b.shape)) betas.push_back(float(v));
+    }
 
     // Keep subsampling options consistent with the other readers.
     std::vector<int> rows(idx.size());
@@ -103,15 +115,19 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
       f.source_index = images.begin()->first + img;
       f.image_path = image_list[size_t(img)];
       f.mask_path = mask_list[size_t(img)];
-      // SMPL joints 0..21 = SMPL-X joints 0..21; SMPL's 22/23 (hands) dropped.
-      for (int c = 0; c < 3; ++c) f.params.pose[size_t(c)] = float(orient[size_t(r) * 3 + c]);
-      for (int c = 0; c < 63; ++c) f.params.pose[size_t(3 * kBodyFirst + c)] = float(body[size_t(r * bw + c)]);
-      for (int c = 0; c < 3; ++c) f.params.transl[size_t(c)] = float(transl[size_t(r) * 3 + c]);
+      double pose72[72] = {};
+      for (int c = 0; c < 3; ++c) pose72[c] = orient[size_t(r) * 3 + c];
+      for (int c = 0; c < bw; ++c) pose72[3 + c] = body[size_t(r * bw + c)];
+      smpl.push_back(smpl_params(pose72, betas, &transl[size_t(r) * 3]));
+      source_frames.push_back(f.source_index);
       ds.frames.push_back(std::move(f));
       files.emplace_back(image_list[size_t(img)], mask_list[size_t(img)]);
     }
   }
   if (ds.frames.empty()) fail(opt.dir, "the frame ranges select no frames");
+  const std::vector<SmplxParams> fits = opt.fit_smpl(smpl, source_frames);
+  if (fits.size() != ds.frames.size()) fail(opt.dir, "the SMPL-X fit returned the wrong number of frames");
+  for (size_t i = 0; i < fits.size(); ++i) ds.frames[i].params = fits[i];
   ds.loader = [files = std::move(files), tr](int i, Image& rgb, Image& mask) {
     const auto& [img_path, mask_path] = files.at(size_t(i));
     const Image color = read_rgb(img_path);

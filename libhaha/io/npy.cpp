@@ -47,6 +47,18 @@ DType parse_descr(const std::string& d) {
   return DType::unsupported;
 }
 
+// Bytes per element of a fixed-width string descr: '<U8' (UTF-32) 32, '|S8' 8; else 0.
+int64_t text_width(const std::string& d) {
+  if (d.size() < 3 || d.size() > 12 || (d[1] != 'U' && d[1] != 'S')) return 0;
+  if (d[0] != '<' && d[0] != '|' && d[0] != '=') return 0;
+  int64_t n = 0;
+  for (size_t i = 2; i < d.size(); ++i) {
+    if (d[i] < '0' || d[i] > '9') return 0;
+    n = n * 10 + (d[i] - '0');
+  }
+  return d[1] == 'U' ? 4 * n : n;
+}
+
 // Value of `key` in the header dict, e.g. 'descr': '<f4' -> "'<f4'".
 std::string header_value(const std::string& h, const std::string& key, const std::string& where) {
   const std::string k = "'" + key + "'";
@@ -211,9 +223,16 @@ NpyArray parse_npy(const uint8_t* data, size_t size, const std::string& where) {
       fail(where, "malformed npy shape '" + shape + "'");
     }
   }
-  if (a.dtype == DType::unsupported) return a;  // listed, not decoded (object arrays etc.)
   const size_t body = offset + header_len;
   const size_t have = size - body;
+  if (a.dtype == DType::unsupported) {
+    // Listed, not decoded (object arrays etc.). A single fixed-width string ('<U8', '|S8',
+    // e.g. AMASS's gender) keeps its bytes for npy_text().
+    const int64_t width = text_width(a.descr);
+    if (width > 0 && a.shape.size() <= 1 && (a.shape.empty() || a.shape[0] == 1) && uint64_t(width) <= have)
+      a.bytes.assign(data + body, data + body + width);
+    return a;
+  }
   const size_t esize = size_t(dtype_size(a.dtype));
   unsigned __int128 count = 1;  // elements; clamped once past what the data could hold
   for (int64_t d : a.shape) count = std::min<unsigned __int128>(count * uint64_t(d), have + 1);
@@ -230,8 +249,9 @@ NpyArray parse_npy(const uint8_t* data, size_t size, const std::string& where) {
 }
 
 std::vector<uint8_t> serialize_npy(const NpyArray& a) {
-  if (a.dtype == DType::unsupported) throw Error("npy: cannot write unsupported dtype '" + a.descr + "'");
-  std::string h = "{'descr': '" + std::string(dtype_descr(a.dtype)) + "', 'fortran_order': False, 'shape': " +
+  const bool text = a.dtype == DType::unsupported && text_width(a.descr) > 0 && int64_t(a.bytes.size()) == text_width(a.descr);
+  if (a.dtype == DType::unsupported && !text) throw Error("npy: cannot write unsupported dtype '" + a.descr + "'");
+  std::string h = "{'descr': '" + (text ? a.descr : std::string(dtype_descr(a.dtype))) + "', 'fortran_order': False, 'shape': " +
                   shape_string(a.shape) + ", }";
   // Pad so that data starts on a 64-byte boundary; header ends with '\n'.
   const size_t total = 10 + h.size() + 1;
@@ -301,9 +321,10 @@ Npz Npz::read(const std::string& path) {
       zip_fclose(zf);
       if (got < 0 || zip_uint64_t(got) != st.size) fail(where, "truncated or corrupt archive member");
       NpyArray a = parse_npy(buf.data(), buf.size(), where);
-      if (a.dtype == DType::unsupported)
+      if (a.dtype == DType::unsupported) {
         npz.undecodable_[name] = "unsupported dtype '" + a.descr + "'";
-      else
+        if (!a.bytes.empty()) npz.texts_[name] = npy_text(a);
+      } else
         npz.arrays_[name] = std::move(a);
     }
   } catch (...) {
@@ -335,6 +356,39 @@ const NpyArray& Npz::get(const std::string& key, const std::vector<int64_t>& sha
     fail(path_ + ": " + key, "wrong shape " + shape_string(a.shape) + ", expected " + want);
   }
   return a;
+}
+
+NpyArray NpyArray::text(const std::string& s) {
+  NpyArray a;
+  a.descr = "<U" + std::to_string(std::max<size_t>(s.size(), 1));
+  a.bytes.assign(4 * std::max<size_t>(s.size(), 1), 0);
+  for (size_t i = 0; i < s.size(); ++i) a.bytes[4 * i] = uint8_t(s[i]);
+  return a;
+}
+
+std::string npy_text(const NpyArray& a) {
+  const int64_t width = text_width(a.descr);
+  if (width <= 0 || int64_t(a.bytes.size()) != width) return {};
+  std::string out;
+  if (a.descr[1] == 'S') {
+    for (uint8_t c : a.bytes) if (c) out += char(c);
+  } else {  // UTF-32LE; only ASCII is kept (model names, genders)
+    for (size_t i = 0; i + 3 < a.bytes.size(); i += 4) {
+      const uint32_t c = uint32_t(a.bytes[i]) | uint32_t(a.bytes[i + 1]) << 8 | uint32_t(a.bytes[i + 2]) << 16 |
+                         uint32_t(a.bytes[i + 3]) << 24;
+      if (c && c < 128) out += char(c);
+    }
+  }
+  return out;
+}
+
+bool Npz::has_text(const std::string& key) const { return texts_.count(key) > 0; }
+
+std::string Npz::text(const std::string& key) const {
+  auto it = texts_.find(key);
+  if (it != texts_.end()) return it->second;
+  if (arrays_.count(key) || undecodable_.count(key)) fail(path_ + ": " + key, "not a single string");
+  fail(path_ + ": " + key, "missing");
 }
 
 std::vector<std::string> Npz::keys() const {

@@ -2,7 +2,8 @@
 // deflated). Supported dtypes: float32, float64, int32, uint32, int64 (little-endian, C
 // order; Fortran order is transposed on read). Arrays of other dtypes (object arrays in
 // real SMPL-X files, strings) are listed but not decoded: asking for one is an error
-// naming the file and key.
+// naming the file and key. A single fixed-width string ('<U8', '|S8', e.g. AMASS's gender)
+// can be read as text (Npz::text).
 #pragma once
 
 #include <cstdint>
@@ -33,6 +34,7 @@ struct NpyArray {
   static NpyArray from(const std::vector<double>& v, std::vector<int64_t> shape);
   static NpyArray from(const std::vector<int32_t>& v, std::vector<int64_t> shape);
   static NpyArray from(const std::vector<int64_t>& v, std::vector<int64_t> shape);
+  static NpyArray text(const std::string& ascii);  // shape (), numpy '<Un' (as np.array('male'))
 };
 
 // Parses one .npy buffer. `where` names it in errors ("file.npz: key").
@@ -58,6 +60,9 @@ class Npz {
   const NpyArray& get(const std::string& key, const std::vector<int64_t>& shape) const;
   std::vector<std::string> keys() const;
   const std::string& path() const { return path_; }
+  // A key holding one fixed-width string (shape () or (1,)); ASCII characters only.
+  bool has_text(const std::string& key) const;
+  std::string text(const std::string& key) const;  // throws "path: key: missing" / "not a single string"
 
   void set(const std::string& key, NpyArray a) { arrays_[key] = std::move(a); }
   void write(const std::string& path) const;  // atomic; deflate-compressed
@@ -66,7 +71,11 @@ class Npz {
   std::string path_;
   std::map<std::string, NpyArray> arrays_;
   std::map<std::string, std::string> undecodable_;  // key -> reason
+  std::map<std::string, std::string> texts_;        // decodable single strings
 };
+
+// The text of a single fixed-width string array (empty if it is not one).
+std::string npy_text(const NpyArray& a);
 
 std::string shape_string(const std::vector<int64_t>& shape);
 

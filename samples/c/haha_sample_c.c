@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
   printf("%s: %d vertices, %d faces, %d Gaussians, texture %dx%d%s\n", avatar_path, info.num_vertices,
          info.num_faces, info.num_gaussians, info.texture_width, info.texture_height,
          info.missing_pose_correctives ? " (pose correctives missing: pass BODY_MODEL.npz for exact reposes)" : "");
-  if ((s = haha_motion_load(motion_path, &motion)) != HAHA_OK) { failed("load motion", s); goto done; }
+  if ((s = haha_motion_load_for_avatar(motion_path, avatar, &motion)) != HAHA_OK) { failed("load motion", s); goto done; }
   if ((s = haha_motion_info(motion, &num_frames, &fps)) != HAHA_OK) { failed("motion info", s); goto done; }
   printf("%s: %d frames at %.3g fps\n", motion_path, num_frames, fps);
   if ((s = haha_posed_create(avatar, &posed)) != HAHA_OK) { failed("create pose state", s); goto done; }

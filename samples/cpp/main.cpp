@@ -117,7 +117,7 @@ int run(int argc, char** argv) {
   if (!render_dir.empty()) std::filesystem::create_directories(render_dir);
 
   haha_motion* m = nullptr;
-  check(haha_motion_load(motion_path.c_str(), &m), "load motion");
+  check(haha_motion_load_for_avatar(motion_path.c_str(), avatar.get(), &m), "load motion");
   Motion motion(m, haha_motion_free);
   int32_t frames = 0;
   double fps = 0;

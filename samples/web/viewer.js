@@ -17,7 +17,7 @@ import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { Avatar, NUM_JOINTS } from './lib/avatar.js';
-import { readMotion } from './lib/npz.js';
+import { motionToYUp, readMotion } from './lib/npz.js';
 import { SplatProjector } from './lib/splat.js';
 import { AvatarRenderer } from './lib/renderer.js';
 import { parseCameraJson, cameraToJson, framingCamera, applyToThree, fromPerspective } from './lib/camera.js';
@@ -97,6 +97,7 @@ class Viewer {
     this.r.margin = a.depthMargin;
     this.motion = motionBytes ? readMotion(motionBytes, params.get('motion'))
       : { frames: [{ pose: new Float64Array(165), transl: new Float64Array(3) }], fps: 30, kind: 'rest' };
+    motionToYUp(this.motion, a.restJoints.subarray(0, 3));  // AMASS (Z-up) stands upright
     this.frame = ((this.frame % this.motion.frames.length) + this.motion.frames.length) % this.motion.frames.length;
 
     // Standard glTF path: GLTFLoader + DRACOLoader give the skinned, textured body.

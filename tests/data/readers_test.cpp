@@ -313,13 +313,27 @@ class PeopleSnapshotTest : public TempDirTest {
     z.set("transl", NpyArray::from(transl, {n, 3}));
     z.write(path);
   }
-  PeopleSnapshotOptions opts(const std::string& d) const {
+  // The fit stands in for app/smpl_fit.h: it records what it was given and marks its
+  // output (betas {7}, transl + 10) so the dataset provably holds the fit's result.
+  PeopleSnapshotOptions opts(const std::string& d) {
     PeopleSnapshotOptions o;
     o.dir = d;
     o.train = {0, 6, 2};
     o.test = {6, 10, 2};
+    o.fit_smpl = [this](const std::vector<SmplxParams>& smpl, const std::vector<int>& source) {
+      given_ = smpl;
+      given_source_ = source;
+      std::vector<SmplxParams> out = smpl;
+      for (SmplxParams& p : out) {
+        p.betas = {7.0f};
+        for (float& t : p.transl) t += 10.0f;
+      }
+      return out;
+    };
     return o;
   }
+  std::vector<SmplxParams> given_;
+  std::vector<int> given_source_;
 };
 
 TEST_F(PeopleSnapshotTest, SmplBodyMappedOntoSmplxHandsAtRest) {
@@ -332,11 +346,18 @@ TEST_F(PeopleSnapshotTest, SmplBodyMappedOntoSmplxHandsAtRest) {
     const DatasetFrame& f = ds.frames[size_t(i)];
     EXPECT_EQ(f.source_index, source[i]);
     const int row = i < 3 ? i : i - 3, base = i < 3 ? 0 : 100;
-    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(f.params.pose[size_t(k)], pose_value(row, k, base) + 1.0f);
-    for (int k = 0; k < 63; ++k) EXPECT_FLOAT_EQ(f.params.pose[size_t(3 + k)], pose_value(row, k, base));
-    for (int k = 66; k < 165; ++k) EXPECT_EQ(f.params.pose[size_t(k)], 0.0f) << k;  // jaw, eyes, hands at rest
-    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(f.params.transl[size_t(k)], pose_value(row, k, base) - 1.0f);
-    EXPECT_TRUE(f.params.betas.empty());  // SMPL betas are another shape space
+    // The fit received SMPL's 24 joints (22/23 in slots 25/40), transl and betas...
+    const SmplxParams& g = given_.at(size_t(i));
+    EXPECT_EQ(given_source_.at(size_t(i)), source[i]);
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(g.pose[size_t(k)], pose_value(row, k, base) + 1.0f);
+    for (int k = 0; k < 63; ++k) EXPECT_FLOAT_EQ(g.pose[size_t(3 + k)], pose_value(row, k, base));
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(g.pose[size_t(3 * 25 + k)], pose_value(row, 63 + k, base));
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(g.pose[size_t(3 * 40 + k)], pose_value(row, 66 + k, base));
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(g.transl[size_t(k)], pose_value(row, k, base) - 1.0f);
+    EXPECT_EQ(g.betas, std::vector<float>(10, 0.5f));
+    // ... and the dataset holds what the fit returned.
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(f.params.transl[size_t(k)], pose_value(row, k, base) + 9.0f);
+    EXPECT_EQ(f.params.betas, std::vector<float>{7.0f});
     EXPECT_FLOAT_EQ(f.camera.cx, 4.0f);
     EXPECT_FLOAT_EQ(f.camera.cy, 6.0f);
     EXPECT_FLOAT_EQ(f.camera.t.z, 4.0f);
@@ -361,8 +382,13 @@ TEST_F(PeopleSnapshotTest, BadInputsNameTheFile) {
   o = opts(d);
   write_poses(d + "/poses/anim_nerf_test.npz", 2, 100, 72);
   expect_error([&] { read_peoplesnapshot(o); }, {"poses/anim_nerf_test.npz", "body_pose"});
-  write_poses(d + "/poses/anim_nerf_test.npz", 2, 100, 63);  // already 21 body joints: fine
+  write_poses(d + "/poses/anim_nerf_test.npz", 2, 100, 63);  // 21 body joints, SMPL hands at rest: fine
   EXPECT_FLOAT_EQ(read_peoplesnapshot(o).frames[4].params.pose[3 + 62], pose_value(1, 62, 100));
+  EXPECT_EQ(given_[4].pose[3 * 25], 0.0f);
+  // Without a fit (no SMPL model) nothing is copied: a clear refusal.
+  o.fit_smpl = nullptr;
+  expect_error([&] { read_peoplesnapshot(o); }, {"SMPL body model", "--smpl-model"});
+  o = opts(d);
   write_poses(d + "/poses/anim_nerf_test.npz", 2, 100);
 
   fs::rename(d + "/masks/mask_0003.npy", path("m3.npy"));

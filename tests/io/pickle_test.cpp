@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "io/pickle.h"
+#include "io/pickle_write.h"
 #include "support/expect_error.h"
 
 namespace haha {
@@ -125,6 +126,34 @@ TEST(Pickle, SmplxFitWithLeadingAxisInDoublePrecision) {
   const std::vector<double> body = nums(p, "body_pose", {1, 63});
   for (int k = 0; k < 63; ++k) EXPECT_DOUBLE_EQ(body[size_t(k)], 3 + 0.01 * 2 + 0.001 * k);
   EXPECT_EQ(p.find("body_pose")->array.dtype, DType::f64);
+}
+
+TEST(PickleWrite, FloatArrayDictReadsBackLikeTheXHumansFixture) {
+  // The X-Humans fixture (written by Python's pickle of numpy arrays) and our writer's
+  // pickle of the same dict read back to the same keys, shapes and values.
+  const Pickle py = Pickle::read(data_dir() + "/xhumans/mesh-f00001_smplx.pkl");
+  std::vector<PickleArray> arrays;
+  for (const std::string& key : py.root().keys()) {
+    const PyNumbers n = py.numbers(key);
+    PickleArray a;
+    a.key = key;
+    for (double v : n.values) a.values.push_back(float(v));
+    a.shape = n.shape;
+    arrays.push_back(a);
+  }
+  ASSERT_GE(arrays.size(), 5u);
+  arrays.push_back({"long", std::vector<float>(300, 0.25f), {3, 100}});  // BINBYTES, 2-D
+  const std::vector<uint8_t> bytes = pickle_float_arrays(arrays);
+  const Pickle ours = Pickle::parse(bytes.data(), bytes.size(), "ours");
+  EXPECT_EQ(ours.root().keys().size(), arrays.size());
+  for (const PickleArray& a : arrays) {
+    const PyNumbers n = ours.numbers(a.key);
+    EXPECT_EQ(n.shape, a.shape) << a.key;
+    ASSERT_EQ(n.values.size(), a.values.size()) << a.key;
+    for (size_t i = 0; i < a.values.size(); ++i) EXPECT_EQ(float(n.values[i]), a.values[i]) << a.key;
+    EXPECT_EQ(ours.find(a.key)->numpy_dtype, "<f4") << a.key;
+  }
+  expect_error([] { pickle_float_arrays({{"x", {1, 2, 3}, {2, 2}}}); }, {"x", "shape"});
 }
 
 TEST(Pickle, Numpy2ModuleSpelling) {

@@ -26,6 +26,7 @@
 #include "haha/haha_runtime.h"
 #include "io/body_model_io.h"
 #include "io/image.h"
+#include "io/motion.h"
 #include "io/npy.h"
 #include "support/format_test_avatar.h"
 
@@ -191,7 +192,7 @@ TEST(RuntimeCApi, ExportsOnlyTheCApi) {
                         "haha_avatar_get_info", "haha_avatar_faces", "haha_avatar_face_uvs", "haha_avatar_texture",
                         "haha_posed_create", "haha_posed_free", "haha_repose", "haha_posed_vertices",
                         "haha_posed_normals", "haha_posed_joints", "haha_posed_gaussians", "haha_render",
-                        "haha_motion_load", "haha_motion_free", "haha_motion_info", "haha_motion_frame",
+                        "haha_motion_load", "haha_motion_load_for_avatar", "haha_motion_free", "haha_motion_info", "haha_motion_frame",
                         "haha_write_png"})
     EXPECT_TRUE(names.count(f)) << f << " is not exported";
 
@@ -708,6 +709,33 @@ TEST(RuntimeCApi, MotionsLoadFrameByFrame) {
   expect_failure(haha_motion_load(no_trans.c_str(), &out), HAHA_ERROR_FORMAT, {"trans"}, no_trans.string());
   EXPECT_EQ(out, nullptr);
   expect_failure(haha_motion_load(nullptr, &out), HAHA_ERROR_ARGUMENT, {"path is NULL"});
+}
+
+TEST(RuntimeCApi, MotionsForAnAvatarAreTurnedUpright) {
+  // The same file through haha_motion_load_for_avatar and through the C++ reader turned
+  // about the avatar's rest pelvis (io/motion.h): identical frames; plain haha_motion_load
+  // keeps the stored (Z-up) numbers.
+  const fs::path path = write_motion("zup.npz", 3);
+  AvatarHandle a;
+  a.p = load_ok(fx().lossless_path);
+  haha_motion* m = nullptr;
+  ASSERT_EQ(haha_motion_load_for_avatar(path.c_str(), a.p, &m), HAHA_OK) << haha_last_error();
+  const AvatarRuntime ref = cpp_runtime(fx().lossless);
+  PosedAvatar rest;
+  ref.repose(SmplxParams{}, rest);
+  Motion want = read_motion(path.string());
+  motion_to_y_up(want, {rest.joints[0], rest.joints[1], rest.joints[2]});
+  const Motion stored = read_motion(path.string());
+  float pose[165], transl[3];
+  for (int f = 0; f < 3; ++f) {
+    ASSERT_EQ(haha_motion_frame(m, f, pose, transl), HAHA_OK);
+    for (int i = 0; i < 165; ++i) EXPECT_EQ(pose[i], want.frames[size_t(f)].pose[size_t(i)]) << i;
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(transl[i], want.frames[size_t(f)].transl[size_t(i)]) << i;
+    EXPECT_NE(transl[1], stored.frames[size_t(f)].transl[1]);
+  }
+  haha_motion_free(m);
+  haha_motion* out = nullptr;
+  expect_failure(haha_motion_load_for_avatar(path.c_str(), nullptr, &out), HAHA_ERROR_ARGUMENT, {"avatar is NULL"});
 }
 
 TEST(RuntimeCApi, WritesPng) {

@@ -260,6 +260,11 @@ HAHA_API haha_status haha_render(haha_posed* posed, const haha_camera* camera, c
  * (global_orient, body_pose, ..., transl; fps 30 unless it stores one). Frame shapes
  * (betas) are ignored. Free with haha_motion_free. */
 HAHA_API haha_status haha_motion_load(const char* path, haha_motion** out_motion);
+/* As haha_motion_load, for posing `avatar`: an AMASS motion (Z-up world, no `up` key)
+ * is turned into haha's Y-up world about the avatar's rest pelvis, so it stands upright
+ * and keeps its path (root' = R root, transl' = R (J0 + transl) - J0). haha_motion_load
+ * returns frames as stored; files written by `haha motion` are Y-up either way. */
+HAHA_API haha_status haha_motion_load_for_avatar(const char* path, const haha_avatar* avatar, haha_motion** out_motion);
 HAHA_API void haha_motion_free(haha_motion* motion);
 /* Frame count and frames per second; either pointer may be NULL. */
 HAHA_API haha_status haha_motion_info(const haha_motion* motion, int32_t* num_frames, double* fps);

@@ -56,7 +56,7 @@ function scalar(z, keys) {
   return undefined;
 }
 
-// -> { frames: [{ pose: Float64Array(165), transl: Float64Array(3) }], fps }
+// -> { frames: [{ pose: Float64Array(165), transl: Float64Array(3) }], fps, up }
 export function readMotion(buffer, name = 'motion.npz') {
   const z = parseNpz(buffer, name);
   const frames = [];
@@ -81,7 +81,9 @@ export function readMotion(buffer, name = 'motion.npz') {
     }
     const fps = scalar(z, ['mocap_frame_rate', 'mocap_framerate', 'fps']);
     if (!(fps > 0)) throw new Error(`${name}: no frame rate (mocap_frame_rate or mocap_framerate)`);
-    return { frames, fps, kind: 'amass' };
+    // World up of the file: AMASS is Z-up unless an `up` array says otherwise (haha motion: +Y).
+    const up = z.up ? Array.from(z.up.data) : [0, 0, 1];
+    return { frames, fps, kind: 'amass', up };
   }
   // Native parameter file: (key, first joint, joint count).
   const parts = [['global_orient', 0, 1], ['body_pose', 1, 21], ['jaw_pose', 22, 1], ['leye_pose', 23, 1],
@@ -108,5 +110,63 @@ export function readMotion(buffer, name = 'motion.npz') {
     const r = z.transl.data.length / 3;
     for (let f = 0; f < T; f++) frames[f].transl.set(z.transl.data.subarray((r === 1 ? 0 : f) * 3, (r === 1 ? 1 : f + 1) * 3));
   }
-  return { frames, fps: scalar(z, ['mocap_frame_rate', 'mocap_framerate', 'fps']) || 30, kind: 'params' };
+  return { frames, fps: scalar(z, ['mocap_frame_rate', 'mocap_framerate', 'fps']) || 30, kind: 'params', up: [0, 1, 0] };
+}
+
+// Rodrigues: axis-angle -> row-major 3 x 3.
+function rodrigues(w) {
+  const t = Math.hypot(w[0], w[1], w[2]);
+  if (t < 1e-12) return [1, 0, 0, 0, 1, 0, 0, 0, 1];
+  const [x, y, z] = [w[0] / t, w[1] / t, w[2] / t], c = Math.cos(t), s = Math.sin(t), C = 1 - c;
+  return [c + x * x * C, x * y * C - z * s, x * z * C + y * s,
+    y * x * C + z * s, c + y * y * C, y * z * C - x * s,
+    z * x * C - y * s, z * y * C + x * s, c + z * z * C];
+}
+const mul = (a, b) => Array.from({ length: 9 }, (_, i) => a[3 * Math.floor(i / 3)] * b[i % 3] +
+  a[3 * Math.floor(i / 3) + 1] * b[3 + i % 3] + a[3 * Math.floor(i / 3) + 2] * b[6 + i % 3]);
+const apply = (m, v) => [0, 1, 2].map((r) => m[3 * r] * v[0] + m[3 * r + 1] * v[1] + m[3 * r + 2] * v[2]);
+
+// Matrix -> axis-angle through the quaternion (w >= 0), angle in [0, pi].
+function axisAngle(m) {
+  const tr = m[0] + m[4] + m[8];
+  let q;
+  if (tr > 0) {
+    const s = 2 * Math.sqrt(tr + 1);
+    q = [s / 4, (m[7] - m[5]) / s, (m[2] - m[6]) / s, (m[3] - m[1]) / s];
+  } else if (m[0] > m[4] && m[0] > m[8]) {
+    const s = 2 * Math.sqrt(1 + m[0] - m[4] - m[8]);
+    q = [(m[7] - m[5]) / s, s / 4, (m[1] + m[3]) / s, (m[2] + m[6]) / s];
+  } else if (m[4] > m[8]) {
+    const s = 2 * Math.sqrt(1 + m[4] - m[0] - m[8]);
+    q = [(m[2] - m[6]) / s, (m[1] + m[3]) / s, s / 4, (m[5] + m[7]) / s];
+  } else {
+    const s = 2 * Math.sqrt(1 + m[8] - m[0] - m[4]);
+    q = [(m[3] - m[1]) / s, (m[2] + m[6]) / s, (m[5] + m[7]) / s, s / 4];
+  }
+  if (q[0] < 0) q = q.map((v) => -v);
+  const n = Math.hypot(q[1], q[2], q[3]);
+  if (n < 1e-12) return [2 * q[1], 2 * q[2], 2 * q[3]];
+  const a = 2 * Math.atan2(n, q[0]) / n;
+  return [a * q[1], a * q[2], a * q[3]];
+}
+
+// The C++ motion_to_y_up (io/motion.h): turns every frame by the smallest rotation taking
+// motion.up to +Y about the world origin: root' = R root, transl' = R (J0 + transl) - J0,
+// J0 = the avatar's rest pelvis.
+export function motionToYUp(motion, pelvis) {
+  const u = motion.up || [0, 1, 0], n = Math.hypot(u[0], u[1], u[2]);
+  const up = [u[0] / n, u[1] / n, u[2] / n];
+  const axis = [-up[2], 0, up[0]];  // up x (0, 1, 0)
+  const s = Math.hypot(axis[0], axis[1], axis[2]), c = up[1];
+  if (s < 1e-12 && c > 0) return motion;
+  const w = s < 1e-12 ? [Math.PI, 0, 0] : axis.map((v) => v * Math.atan2(s, c) / s);
+  const R = rodrigues(w);
+  for (const f of motion.frames) {
+    const root = axisAngle(mul(R, rodrigues([f.pose[0], f.pose[1], f.pose[2]])));
+    const t = apply(R, [pelvis[0] + f.transl[0], pelvis[1] + f.transl[1], pelvis[2] + f.transl[2]]);
+    f.pose.set(root, 0);
+    f.transl.set([t[0] - pelvis[0], t[1] - pelvis[1], t[2] - pelvis[2]]);
+  }
+  motion.up = [0, 1, 0];
+  return motion;
 }
