@@ -297,7 +297,8 @@ std::vector<std::pair<std::string, PlotSpec>> bench_plots(const BenchResult& r) 
     for (auto& [k, s] : cs) {
       std::vector<size_t> idx(s.x.size());
       for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-      std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return s.x[a] < s.x[b]; });
+      const std::vector<double>& xs = s.x;  // clang 14 cannot capture a structured binding
+      std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return xs[a] < xs[b]; });
       PlotSeries t = s;
       for (size_t i = 0; i < idx.size(); ++i) t.x[i] = s.x[idx[i]], t.y[i] = s.y[idx[i]];
       c.series.push_back(t);

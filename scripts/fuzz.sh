@@ -15,7 +15,8 @@ if [ ${#targets[@]} -eq 0 ]; then
   for f in tests/fuzz/targets/*.cpp; do targets+=("$(basename "$f" .cpp)"); done
 fi
 CC=clang CXX=clang++ cmake -S tests/fuzz -B build-fuzz -G Ninja >/dev/null
-cmake --build build-fuzz --parallel "$(nproc)" --target "${targets[@]/#/fuzz_}" >/dev/null
+cmake --build build-fuzz --parallel "$(nproc)" --target "${targets[@]/#/fuzz_}" >build-fuzz/build.log 2>&1 ||
+  { tail -30 build-fuzz/build.log; echo "fuzz.sh: the fuzz build failed (build-fuzz/build.log)"; exit 2; }
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:allocator_may_return_null=0:malloc_limit_mb=2048}
 printf '%-12s %12s %8s %9s\n' target executions seconds findings
 total_findings=0
