@@ -2,7 +2,8 @@
 # The whole pipeline on the embedded sample (the README's first command):
 #   install + build -> haha synth -> haha train --preset tiny -> haha eval -> haha pack
 #   -> haha motion (a pose sequence the avatar never saw) -> haha render -> MP4 + GIF.
-# Usage: bash scripts/demo.sh [--out DIR] [--device cpu|cuda] [--no-build] [--haha PATH]
+# Usage: bash scripts/demo.sh [--out DIR] [--no-build] [--haha PATH]
+# (train / eval / render run on the CPU; the GPU path is `haha bench --device cuda`.)
 # Outputs go to out/demo (gitignored) unless --out says otherwise. Sized for 2 CPU cores
 # and about ten minutes in all.
 set -euo pipefail
@@ -10,17 +11,15 @@ cd "$(dirname "$0")/.."
 root=$(pwd)
 
 out=out/demo
-device=cpu
 build=1
 haha="$root/build/cli/haha"
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
-    --device) device="$2"; shift 2 ;;
     --no-build) build=0; shift ;;
     --haha) haha=$(realpath "$2"); build=0; shift 2 ;;  # an already built haha (development)
     -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
-    *) echo "demo.sh: unknown argument '$1' (--out DIR, --device cpu|cuda, --no-build, --haha PATH)" >&2; exit 2 ;;
+    *) echo "demo.sh: unknown argument '$1' (--out DIR, --no-build, --haha PATH)" >&2; exit 2 ;;
   esac
 done
 
@@ -63,12 +62,10 @@ step synth "synthesize the sample subject: 40 training frames (one turn) + 10 no
 "$haha" synth --out "$out/data"
 
 step train "train the avatar: the three HAHA stages, preset tiny (Gaussians, texture, filtering)"
-dev_args=()
-[ "$device" != cpu ] && dev_args=(--device "$device")
-"$haha" train --data "$out/data" --out "$out/run" --preset tiny "${dev_args[@]}"
+"$haha" train --data "$out/data" --out "$out/run" --preset tiny
 
 step eval "evaluate on the novel test poses: mesh only / full Gaussians / naive merge / HAHA"
-"$haha" eval --run "$out/run" "${dev_args[@]}"
+"$haha" eval --run "$out/run"
 
 step pack "pack the avatar into one .glb (skinned textured mesh + Gaussians, Draco)"
 "$haha" pack "$out/run" --out "$out/avatar.glb"
@@ -77,7 +74,7 @@ step pack "pack the avatar into one .glb (skinned textured mesh + Gaussians, Dra
 step render "repose with a new motion (waving, never seen in training) and render an animation"
 "$haha" motion --kind wave --frames 48 --fps 24 --out "$out/motion_wave.npz"
 "$haha" render "$out/avatar.glb" --motion "$out/motion_wave.npz" --model "$out/data/body_model.npz" \
-  --out "$out/render" --size 256 --video "$out/animation.mp4" "${dev_args[@]}"
+  --out "$out/render" --size 256 --video "$out/animation.mp4"
 # A GIF too: it plays inline in browsers, chat and Markdown viewers.
 ffmpeg -y -loglevel error -framerate 24 -i "$out/render/frame_%05d.png" \
   -vf "split[a][b];[a]palettegen=max_colors=128[p];[b][p]paletteuse" "$out/animation.gif"
