@@ -16,6 +16,7 @@
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
+#include "train/silhouette_fit.h"
 
 namespace haha {
 
@@ -123,6 +124,17 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
   const int num_frames = int(input.frames.size());
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
+  if (cfg.s0.steps > 0 && !opt.resume) {  // a resumed run has its refined poses in the checkpoint
+    const auto t0 = std::chrono::steady_clock::now();
+    const SilhouetteFitReport fit = fit_poses_to_masks(body, input.frames, cfg.s0);
+    double a = 0, b = 0;
+    for (size_t i = 0; i < fit.loss_start.size(); ++i) a += fit.loss_start[i], b += fit.loss_end[i];
+    char line[160];
+    std::snprintf(line, sizeof line, "pose pre-fit to the masks: %d frames x %d steps, silhouette loss %.4g -> %.4g (%.1f s)",
+                  num_frames, cfg.s0.steps, a / num_frames, b / num_frames,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    log(line);
+  }
   Trainer trainer(cfg, std::move(input));
 
   if (opt.resume) {

@@ -55,6 +55,13 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"log_every", K::Int, &c.log_every, "steps between progress lines"});
   v.push_back({"random_background", K::Bool, &c.random_background, "random background colour in stages 1 and 3"});
 
+  Stage0Config& s0 = c.s0;
+  v.push_back({"s0.steps", K::Int, &s0.steps, "pose pre-fit to the masks: steps per frame (0 = off)"});
+  v.push_back({"s0.lr", K::Double, &s0.lr, "pose pre-fit lr"});
+  v.push_back({"s0.w.outside", K::Double, &s0.w_outside, "pose pre-fit: weight of body outside the mask"});
+  v.push_back({"s0.w.inside", K::Double, &s0.w_inside, "pose pre-fit: weight of mask not covered"});
+  v.push_back({"s0.w.prior", K::Double, &s0.w_prior, "pose pre-fit: weight of the squared change from the fit"});
+
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});
   v.push_back({"s1.lr.offset_init", K::Double, &s1.lr_offset_init, "position lr at the stage start"});

@@ -33,6 +33,16 @@ struct LossWeights {
   double opacity = 0.0;    // opacity regulariser (stage 3 sets its own)
 };
 
+// Pose pre-fit to the masks before stage 1 (train/silhouette_fit.h); off by default.
+struct Stage0Config {
+  int steps = 0;           // per frame
+  double lr = 5e-3;        // global orient / body pose / transl
+  double w_outside = 1.0;  // body coverage outside the mask
+  double w_inside = 0.2;   // mask left uncovered (clothes and hair make it larger than the body)
+  double w_prior = 0.01;   // squared change of the pose values (rad) and transl (m) from the fit:
+                           // a silhouette leaves many joints unconstrained, Adam would move them anyway
+};
+
 struct Stage1Config {
   int steps = 3000;
   double lr_offset_init = 1.6e-4, lr_offset_final = 1.6e-6;  // log-linear over the stage
@@ -90,6 +100,7 @@ struct TrainConfig {
   int checkpoint_every = 500;    // steps (plus every stage end)
   int log_every = 50;            // progress lines
   bool random_background = true; // stages 1 and 3
+  Stage0Config s0{};
   Stage1Config s1{};
   Stage2Config s2{};
   Stage3Config s3{};
