@@ -243,6 +243,15 @@ HAHA_HD void aa_column(const AntialiasInputsT<T>& in, int x, int y, AaColumn<T>&
   }
 }
 
+// The column blend of the row blends: m' (ch < 0) or channel ch of P'.
+template <class T>
+HAHA_HD T aa_column_value(const AaColumn<T>& col, int ch) {
+  T v = (T(1) - col.c[0].w - col.c[1].w) * (ch < 0 ? col.mh[0] : col.Ph[0][ch]);
+  for (int k = 0; k < 2; ++k)
+    if (col.c[k].w != T(0)) v += col.c[k].w * (ch < 0 ? col.mh[1 + k] : col.Ph[1 + k][ch]);
+  return v;
+}
+
 // Forward of pixel (x, y): color_out (C) and mask_out.
 template <class T>
 HAHA_HD void antialias_pixel(const AntialiasInputsT<T>& in, int x, int y, T* color_out, T* mask_out) {
@@ -250,16 +259,9 @@ HAHA_HD void antialias_pixel(const AntialiasInputsT<T>& in, int x, int y, T* col
   const int64_t r = int64_t(y) * in.camera.width + x;
   AaColumn<T> col;
   aa_column(in, x, y, col);
-  const T own = T(1) - col.c[0].w - col.c[1].w;
-  T m = own * col.mh[0];
-  for (int k = 0; k < 2; ++k)
-    if (col.c[k].w != T(0)) m += col.c[k].w * col.mh[1 + k];
-  for (int ch = 0; ch < C; ++ch) {
-    T p = own * col.Ph[0][ch];
-    for (int k = 0; k < 2; ++k)
-      if (col.c[k].w != T(0)) p += col.c[k].w * col.Ph[1 + k][ch];
-    color_out[ch] = m > aa_min_coverage<T>() ? p / m : in.color[r * C + ch];
-  }
+  const T m = aa_column_value(col, -1);
+  for (int ch = 0; ch < C; ++ch)
+    color_out[ch] = m > aa_min_coverage<T>() ? aa_column_value(col, ch) / m : in.color[r * C + ch];
   *mask_out = m;
 }
 
@@ -318,16 +320,12 @@ HAHA_HD void antialias_backward_pixel(const AntialiasInputsT<T>& in, int x, int 
   AaColumn<T> col;
   aa_column(in, x, y, col);
   const T own = T(1) - col.c[0].w - col.c[1].w;
-  T m = own * col.mh[0];
-  for (int k = 0; k < 2; ++k)
-    if (col.c[k].w != T(0)) m += col.c[k].w * col.mh[1 + k];
+  const T m = aa_column_value(col, -1);
   // M' = P' / m' (or M_r below the minimum coverage): dL/dP' and dL/dm'.
   T gP[8], gm = g_mask_out;
   for (int ch = 0; ch < C; ++ch) {
     if (m > aa_min_coverage<T>()) {
-      T p = own * col.Ph[0][ch];
-      for (int k = 0; k < 2; ++k)
-        if (col.c[k].w != T(0)) p += col.c[k].w * col.Ph[1 + k][ch];
+      const T p = aa_column_value(col, ch);
       gP[ch] = g_color_out[ch] / m;
       gm -= g_color_out[ch] * (p / m) / m;
     } else {

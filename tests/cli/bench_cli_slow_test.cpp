@@ -24,6 +24,7 @@
 #include "format/avatar_npz.h"
 #include "io/image.h"
 #include "io/motion.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
@@ -31,16 +32,12 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
+using haha::test::kHaha;
+using haha::test::slurp;
 
 int run(const std::string& args, const fs::path& log) {
   const std::string cmd = "'" + kHaha.string() + "' " + args + " > '" + log.string() + "' 2>&1";
   return WEXITSTATUS(std::system(cmd.c_str()));
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
 // Every number in the document is finite (the writer turns NaN / Inf into null, so a null

@@ -22,13 +22,14 @@
 #include "io/image.h"
 #include "io/npy.h"
 #include "io/ply_3dgs.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
+using haha::test::kHaha;
 
 // Runs haha with `args`; kills it with SIGKILL after `kill_after_ms` unless it ended.
 // Returns the exit code, or -1 when it was killed.

@@ -10,16 +10,14 @@
 #include <fstream>
 #include <string>
 
+#include "support/haha_cli.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
+using haha::test::kHaha;
+using haha::test::slurp;
 
 TEST(HostileInput, TwoBillionGaussianPlyIsOneLineAndExitCodeOne) {
   if (!fs::exists(kHaha)) GTEST_SKIP() << "the haha executable is not built at " << kHaha;

@@ -19,20 +19,17 @@
 #include "io/image.h"
 #include "io/npy.h"
 #include "support/format_test_avatar.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
+using haha::test::kHaha;
+using haha::test::slurp;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInf = std::numeric_limits<float>::infinity();
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
 
 // Runs haha; returns the exit code, stderr in `err`.
 int run_haha(const std::vector<std::string>& args, const fs::path& err_file, std::string& err) {

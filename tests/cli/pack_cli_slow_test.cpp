@@ -16,22 +16,19 @@
 #include "support/format_realistic_avatar.h"
 #include "io/body_model_io.h"
 #include "io/npy.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
+using haha::test::kHaha;
+using haha::test::slurp;
 
 int run(const std::string& args, const fs::path& stdout_file, const fs::path& stderr_file) {
   const std::string cmd = "'" + kHaha.string() + "' " + args + " > '" + stdout_file.string() + "' 2> '" + stderr_file.string() + "'";
   return WEXITSTATUS(std::system(cmd.c_str()));
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
 TEST(FormatCli, PackInfoUnpackRepackRender) {

@@ -20,6 +20,7 @@
 #include "io/npy.h"
 #include "support/format_realistic_avatar.h"
 #include "train/losses.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
@@ -27,12 +28,8 @@ namespace {
 namespace fs = std::filesystem;
 using V3 = Vec3<double>;
 
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
+using haha::test::kHaha;
+using haha::test::slurp;
 
 int run(const std::string& args, const fs::path& dir) {
   const std::string cmd = "'" + kHaha.string() + "' " + args + " > '" + (dir / "out.txt").string() + "' 2> '" +

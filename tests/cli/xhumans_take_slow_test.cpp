@@ -16,17 +16,14 @@
 
 #include "data/dataset.h"
 #include "train/losses.h"
+#include "support/haha_cli.h"
 
 namespace haha {
 namespace {
 
 namespace fs = std::filesystem;
-const fs::path kHaha = fs::read_symlink("/proc/self/exe").parent_path().parent_path() / "cli" / "haha";
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-}
+using haha::test::kHaha;
+using haha::test::slurp;
 
 class XHumansTake : public ::testing::Test {
  protected:
