@@ -49,7 +49,7 @@ HAHA_COMMAND(pack) {
   struct Opts {
     std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg";
     int texture_size = 0, texture_quality = 95;
-    bool lossless = false, splats = false, correctives = false;
+    bool lossless = false, splats = false, correctives = false, keep_face_order = false, normals = false;
   };
   auto o = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians, Draco)");
@@ -68,6 +68,9 @@ HAHA_COMMAND(pack) {
   sub->add_flag("--lossless", o->lossless, "float32 everywhere + exact texture copy: unpack restores every parameter bit-exact");
   sub->add_flag("--khr-gaussian-splatting", o->splats,
                 "also store the Gaussians in the rest pose as a KHR_gaussian_splatting primitive (splat viewers)");
+  sub->add_flag("--keep-face-order", o->keep_face_order,
+                "Draco sequential mesh encoding: the file keeps the body model's face order (about 3.5x larger mesh)");
+  sub->add_flag("--normals", o->normals, "store vertex normals (8-bit octahedral); the unlit material does not need them");
   sub->add_flag("--pose-correctives", o->correctives,
                 "embed the body model's pose-corrective blend shapes (large) so the loader reposes exactly like the trainer");
   sub->callback([o] {
@@ -87,6 +90,8 @@ HAHA_COMMAND(pack) {
     opt.texture_quality = o->texture_quality;
     opt.khr_gaussian_splatting = o->splats;
     opt.pose_correctives = o->correctives;
+    opt.keep_face_order = o->keep_face_order;
+    opt.normals = o->normals;
     if (o->texture_size < 0) haha::fail("--texture-size", "must be positive");
     if (!o->gaussian_bits.empty()) {
       auto& g = opt.gaussian_bits;

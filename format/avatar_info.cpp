@@ -113,6 +113,7 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
   j["scaleEncoding"] = i.scale_encoding;
   j["rotationEncoding"] = i.rotation_encoding;
   j["gaussianOrder"] = i.gaussian_order;
+  j["meshEncoding"] = s.edgebreaker ? "edgebreaker" : "sequential";
   j["texture"] = {{"mimeType", i.texture_mime}, {"width", i.texture_width}, {"height", i.texture_height},
                   {"exactFloatCopy", i.texture_exact}};
   j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
@@ -143,8 +144,13 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
     << i.rotation_encoding << ", order " << i.gaussian_order << ")\n";
   o << "  mesh          " << i.body_vertex_count << " body vertices (" << s.num_vertices << " glTF vertices), "
     << s.num_faces << " faces, " << s.skin_sets << " skin set(s) for up to " << s.max_influences
-    << " influences (Draco " << bytes(s.mesh) << "; bits " << bits_text(i.mesh_bits) << ")\n";
-  o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";
+    << " influences (Draco " << (s.edgebreaker ? "edgebreaker " : "sequential ") << bytes(s.mesh) << "; bits "
+    << bits_text(i.mesh_bits) << ")\n";
+  if (i.joint_regressor_nonzeros > 0) {
+    o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";
+  } else {
+    o << "  skeleton      55 joints, rest joints in the inverse bind matrices (" << bytes(s.skeleton) << ")\n";
+  }
   o << "  texture       " << i.texture_mime << " " << i.texture_width << " x " << i.texture_height << " (" << bytes(s.texture) << ")";
   if (i.texture_exact) o << " + exact float32 copy (" << bytes(s.texture_exact) << ")";
   o << "\n";

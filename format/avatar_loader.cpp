@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "format/avatar_unpack.h"
 #include "format/avatar_validate.h"
+#include "format/glb.h"
 
 namespace haha {
 
@@ -15,6 +16,7 @@ struct AvatarRuntime::State {
   std::unique_ptr<Lbs<float>> lbs;  // points into avatar.body: State never moves (unique_ptr)
   bool shaped = false;              // body has shape directions: apply the avatar's betas
   bool wants_correctives = false;   // the avatar was trained with pose correctives
+  uint32_t topology_crc32 = 0;      // of the body's faces in their original order (files only)
 };
 
 AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
@@ -30,6 +32,7 @@ AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* mode
   UnpackedAvatar u = read_avatar_file(path);
   AvatarRuntime rt(std::move(u.avatar));
   rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
+  rt.s_->topology_crc32 = u.info.topology_crc32;
   if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);
   return rt;
 }
@@ -47,7 +50,12 @@ bool AvatarRuntime::missing_pose_correctives() const { return s_->wants_correcti
 void AvatarRuntime::set_pose_correctives(const BodyModel& model) {
   BodyModel& b = s_->avatar.body;
   const std::string where = model.source.empty() ? "body model" : model.source;
-  if (model.num_verts != b.num_verts || model.faces != b.faces) {
+  // A file's faces may be in the encoder's order: then the checksum of the model's faces
+  // must be the one the packer recorded.
+  const bool same_faces = model.faces == b.faces ||
+                          (s_->topology_crc32 != 0 &&
+                           glb::crc32(reinterpret_cast<const uint8_t*>(model.faces.data()), model.faces.size() * 4) == s_->topology_crc32);
+  if (model.num_verts != b.num_verts || !same_faces) {
     fail(where, "pose correctives: the body model's mesh (" + std::to_string(model.num_verts) +
                     " vertices) is not the avatar's (" + std::to_string(b.num_verts) + ")");
   }

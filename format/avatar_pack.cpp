@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <array>
 #include <map>
+#include <memory>
 
 #include "body/face_frames.h"
 #include "core/atomic_file.h"
@@ -193,6 +195,10 @@ struct GlbDoc {
   Json required = {"KHR_draco_mesh_compression"};
   Json ext;  // HAHA_gaussian_avatar
   PackedSizes sz;
+  // Where each body face went in the file: its face index there and which of the file
+  // face's corners is the body face's corner 0 (edgebreaker rotates corners).
+  std::vector<int32_t> file_face;
+  std::vector<uint8_t> file_corner;
   int add_accessor(Json acc) {
     accessors.push_back(std::move(acc));
     return int(accessors.size()) - 1;
@@ -211,6 +217,10 @@ RestBody rest_body(const Avatar& a) {
   RestBody r;
   r.verts = baked_rest_vertices(a);
   r.joints.assign(kNumJoints * 3, 0.0);
+  if (b.j_regressor.empty()) {  // an unpacked avatar: its rest joints are stored
+    for (size_t i = 0; i < r.joints.size(); ++i) r.joints[i] = b.joints_rest[i];
+    return r;
+  }
   for (int j = 0; j < kNumJoints; ++j)
     for (int v = 0; v < V; ++v) {
       const double w = b.j_regressor[size_t(j) * V + v];
@@ -220,9 +230,48 @@ RestBody rest_body(const Avatar& a) {
   return r;
 }
 
-// The skinned, textured body mesh: split at UV seams, Draco-compressed (sequential, so
-// face order is kept), with BODY_VERTEX (and, lossless, the exact UVs) as private
-// attributes. Mesh 0 of the file.
+// Finds each body face in a decoded edgebreaker mesh through BODY_VERTEX: its index there
+// and the corner rotation. False if a body vertex or face is missing or two body faces
+// share their vertices (then the caller keeps the face order instead).
+bool match_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b, std::vector<int32_t>& file_face,
+                 std::vector<uint8_t>& file_corner) {
+  const int V = b.num_verts, F = b.num_faces;
+  if (dec.num_faces() != F) return false;
+  const std::vector<int64_t> bv = dec.ints(body_vertex_id, 1, "BODY_VERTEX");
+  std::vector<char> seen(size_t(V), 0);
+  for (int64_t v : bv) seen[size_t(v)] = 1;
+  if (std::count(seen.begin(), seen.end(), 0) != 0) return false;
+  // Key: the corners rotated to start at the smallest vertex (orientation kept).
+  auto key = [](int32_t x, int32_t y, int32_t z, int& start) {
+    start = (x <= y && x <= z) ? 0 : (y <= z ? 1 : 2);
+    const int32_t c[3] = {x, y, z};
+    return std::array<int32_t, 3>{c[start], c[(start + 1) % 3], c[(start + 2) % 3]};
+  };
+  std::map<std::array<int32_t, 3>, std::pair<int32_t, int>> body_faces;
+  for (int f = 0; f < F; ++f) {
+    int start;
+    const auto k = key(b.faces[size_t(f) * 3], b.faces[size_t(f) * 3 + 1], b.faces[size_t(f) * 3 + 2], start);
+    if (!body_faces.emplace(k, std::make_pair(int32_t(f), start)).second) return false;
+  }
+  file_face.assign(size_t(F), -1);
+  file_corner.assign(size_t(F), 0);
+  const std::vector<int32_t> df = dec.faces();
+  for (int f = 0; f < F; ++f) {
+    int start;
+    const auto k = key(int32_t(bv[size_t(df[size_t(f) * 3])]), int32_t(bv[size_t(df[size_t(f) * 3 + 1])]),
+                       int32_t(bv[size_t(df[size_t(f) * 3 + 2])]), start);
+    const auto it = body_faces.find(k);
+    if (it == body_faces.end() || file_face[size_t(it->second.first)] >= 0) return false;
+    file_face[size_t(it->second.first)] = f;
+    // Body corner `s` (its smallest vertex) is file corner `start`: corner 0 is file corner start - s.
+    file_corner[size_t(it->second.first)] = uint8_t((start - it->second.second + 3) % 3);
+  }
+  return true;
+}
+
+// The skinned, textured body mesh: split at UV seams, Draco-compressed (edgebreaker, or
+// sequential to keep the body's face order), with BODY_VERTEX (and, lossless, the exact
+// UVs) as private attributes. Mesh 0 of the file.
 void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackOptions& opt) {
   const BodyModel& b = a.body;
   const bool lossless = opt.lossless;
@@ -232,7 +281,7 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
   const int Vg = int(split.source.size());
   d.sz.num_vertices = Vg;
   std::vector<float> pos = gather(rest.verts, split.source, 3);
-  std::vector<float> nrm = gather(vertex_normals(rest.verts, b), split.source, 3);
+  const std::vector<float> nrm = opt.normals ? gather(vertex_normals(rest.verts, b), split.source, 3) : std::vector<float>();
   std::vector<float> uv(size_t(Vg) * 2, 0.0f), uv_src(size_t(Vg) * 2, 0.0f);
   for (int g = 0; g < Vg; ++g) {
     const int32_t t = split.uv_of[size_t(g)];
@@ -262,7 +311,7 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
   using dracoio::Type;
   std::vector<AttrIn> mattrs;
   mattrs.push_back({"POSITION", Kind::position, Type::f32, 3, pos.data(), mb.position});
-  mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, nrm.data(), mb.normal});
+  if (opt.normals) mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, nrm.data(), mb.normal});
   mattrs.push_back({"TEXCOORD_0", Kind::texcoord, Type::f32, 2, uv.data(), mb.texcoord});
   for (int s = 0; s < skin.sets; ++s) {
     mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, joints_g[size_t(s)].data(), 0});
@@ -272,18 +321,35 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
   mattrs.push_back({"BODY_VERTEX", Kind::generic, wide_index ? Type::u32 : Type::u16, 1,
                     wide_index ? static_cast<const void*>(split.source.data()) : static_cast<const void*>(src16.data()), 0});
   if (lossless) mattrs.push_back({"TEXCOORD_SOURCE", Kind::generic, Type::f32, 2, uv_src.data(), 0});
-  const dracoio::Encoded mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F);
-
-  // Decode our own stream: it gives exact accessor bounds and guards the face order the
-  // Gaussians depend on (a Draco build that reordered faces would fail here, not later).
-  std::vector<float> pos_min(3, INFINITY), pos_max(3, -INFINITY);
-  {
-    dracoio::Decoded dec(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
-    if (dec.num_faces() != F || dec.num_points() != Vg || dec.faces() != split.faces) {
+  const int body_vertex_attr = int(first_private);
+  dracoio::Method method = lossless || opt.keep_face_order ? dracoio::Method::sequential : dracoio::Method::edgebreaker;
+  dracoio::Encoded mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F, method);
+  // Decode our own stream: it gives exact accessor bounds, the face map the Gaussians
+  // need, and guards the face order (a Draco build that reordered sequential faces would
+  // fail here, not later).
+  std::unique_ptr<dracoio::Decoded> dec =
+      std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
+  if (method == dracoio::Method::edgebreaker &&
+      !match_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b, d.file_face, d.file_corner)) {
+    method = dracoio::Method::sequential;  // a body edgebreaker cannot map back: keep the face order
+    mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F, method);
+    dec = std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
+  }
+  if (method == dracoio::Method::sequential) {
+    if (dec->num_faces() != F || dec->num_points() != Vg || dec->faces() != split.faces) {
       fail("pack", "Draco changed the mesh's face or vertex order; refusing to write a file whose Gaussians would bind to the wrong faces");
     }
-    const std::vector<float> p = dec.floats(mesh_enc.unique_ids[0], 3, "POSITION");
-    for (int g = 0; g < Vg; ++g)
+    d.file_face.resize(size_t(F));
+    for (int f = 0; f < F; ++f) d.file_face[size_t(f)] = f;
+    d.file_corner.assign(size_t(F), 0);
+  }
+  d.sz.edgebreaker = method == dracoio::Method::edgebreaker;
+  const int Vf = dec->num_points();  // edgebreaker may drop unreferenced points
+  d.sz.num_vertices = Vf;
+  std::vector<float> pos_min(3, INFINITY), pos_max(3, -INFINITY);
+  {
+    const std::vector<float> p = dec->floats(mesh_enc.unique_ids[0], 3, "POSITION");
+    for (int g = 0; g < Vf; ++g)
       for (int k = 0; k < 3; ++k) {
         pos_min[size_t(k)] = std::min(pos_min[size_t(k)], p[size_t(g) * 3 + k]);
         pos_max[size_t(k)] = std::max(pos_max[size_t(k)], p[size_t(g) * 3 + k]);
@@ -293,14 +359,14 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
   d.sz.mesh = mesh_enc.bytes.size();
 
   Json prim_attrs, draco_attrs;
-  const int idx_acc = d.add_accessor({{"componentType", Vg > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
-  prim_attrs["POSITION"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"},
+  const int idx_acc = d.add_accessor({{"componentType", Vf > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
+  prim_attrs["POSITION"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"},
                                            {"min", float_array(pos_min.data(), 3)}, {"max", float_array(pos_max.data(), 3)}});
-  prim_attrs["NORMAL"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
-  prim_attrs["TEXCOORD_0"] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
+  if (opt.normals) prim_attrs["NORMAL"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"}});
+  prim_attrs["TEXCOORD_0"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC2"}});
   for (int s = 0; s < skin.sets; ++s) {
-    prim_attrs["JOINTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
-    prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kFloat}, {"count", Vg}, {"type", "VEC4"}});
+    prim_attrs["JOINTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kUByte}, {"count", Vf}, {"type", "VEC4"}});
+    prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC4"}});
   }
   for (size_t i = 0; i < first_private; ++i) draco_attrs[mattrs[i].name] = mesh_enc.unique_ids[i];
 
@@ -313,13 +379,14 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
 
   Json mesh_private;
   for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
-  const Json m_bits = {{"POSITION", mb.position}, {"NORMAL", mb.normal}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
+  Json m_bits = {{"POSITION", mb.position}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
+  if (opt.normals) m_bits["NORMAL"] = mb.normal;
   Json& body = d.ext["body"];
   body["mesh"] = 0;
   body["vertexCount"] = V;
   body["faceCount"] = F;
   body["draco"] = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
-                   {"quantizationBits", m_bits}};
+                   {"quantizationBits", m_bits}, {"method", d.sz.edgebreaker ? "edgebreaker" : "sequential"}};
   body["skinSets"] = skin.sets;
   body["shapeBaked"] = true;
   // Whether the trainer's LBS applied pose correctives (a body with posedirs always does),
@@ -331,7 +398,7 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
 // The skeleton: joint nodes (identity rest rotation, translation = offset to the parent),
 // the body node with its skin, inverse bind matrices, and the sparse joint regressor
 // (joint, vertex, weight) so a loader regresses the same joints.
-void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest) {
+void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest, bool with_regressor) {
   const int V = b.num_verts;
   const std::vector<double>& joints = rest.joints;
   std::vector<Json> children(kNumJoints, Json::array());
@@ -359,6 +426,11 @@ void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest) {
   for (int j = 0; j < kNumJoints; ++j) joint_list.push_back(j);
   d.skins = Json::array({{{"name", "smplx"}, {"inverseBindMatrices", ibm_acc}, {"joints", joint_list}, {"skeleton", 0}}});
   d.sz.skeleton += ibm.size() * sizeof(float);
+  d.ext["body"]["node"] = mesh_node;
+  d.ext["body"]["skin"] = 0;
+  // The shape is baked, so the rest joints never change: loaders take them from the
+  // inverse bind matrices. The regressor (17 KB for SMPL-X) only travels in lossless packs.
+  if (!with_regressor || b.j_regressor.empty()) return;
 
   std::vector<int32_t> jr_joint, jr_vert;
   std::vector<float> jr_w;
@@ -377,8 +449,6 @@ void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest) {
   std::memcpy(jr_bytes.data() + jr_w.size() * 8, jr_w.data(), jr_w.size() * 4);
   const int jr_view = d.bin.add_view(jr_bytes.data(), jr_bytes.size());
   d.sz.skeleton += jr_bytes.size();
-  d.ext["body"]["node"] = mesh_node;
-  d.ext["body"]["skin"] = 0;
   d.ext["body"]["jointRegressor"] = {{"bufferView", jr_view}, {"count", jr_w.size()}, {"crc32", d.bin.view_crc(jr_view)}};
 }
 
@@ -429,18 +499,25 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
                           {"order", lossless ? "original" : "face"}};
     return;
   }
-  // Lossy packs store the Gaussians sorted by face (stable): the face index then costs ~2
-  // bits instead of ~8, and the render does not depend on the order. Lossless keeps it.
+  // Lossy packs store the Gaussians sorted by (file) face, stably: the face index then
+  // costs ~2 bits instead of ~8, and the render does not depend on the order. Lossless
+  // keeps it.
   std::vector<int32_t> order(static_cast<size_t>(N));
   for (int i = 0; i < N; ++i) order[size_t(i)] = i;
-  if (!lossless) std::stable_sort(order.begin(), order.end(), [&](int32_t x, int32_t y) { return G.face[size_t(x)] < G.face[size_t(y)]; });
+  auto file_face = [&](int32_t i) { return d.file_face[size_t(G.face[size_t(i)])]; };
+  if (!lossless) std::stable_sort(order.begin(), order.end(), [&](int32_t x, int32_t y) { return file_face(x) < file_face(y); });
   auto permuted = [&](const auto& v, int comps) {
     std::remove_cvref_t<decltype(v)> out(v.size());
     for (int i = 0; i < N; ++i)
       for (int k = 0; k < comps; ++k) out[size_t(i) * comps + k] = v[size_t(order[size_t(i)]) * comps + k];
     return out;
   };
-  const std::vector<int32_t> face = permuted(G.face, 1);
+  std::vector<int32_t> face(static_cast<size_t>(N));
+  std::vector<uint8_t> corner(static_cast<size_t>(N));
+  for (int i = 0; i < N; ++i) {
+    face[size_t(i)] = file_face(order[size_t(i)]);
+    corner[size_t(i)] = d.file_corner[size_t(G.face[size_t(order[size_t(i)])])];
+  }
   const std::vector<float> offset = permuted(G.offset, 3), color = permuted(G.color, 3), opacity = permuted(G.opacity, 1);
   std::vector<float> rot = permuted(G.rotation, 4), scl = permuted(G.scale, 3);
   std::vector<uint8_t> largest;
@@ -477,6 +554,8 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
       {"COLOR", Kind::generic, Type::f32, 3, color.data(), gb.color, true},
       {"OPACITY", Kind::generic, Type::f32, 1, opacity.data(), gb.opacity, false}};
   if (!lossless) gattrs.push_back({"ROTATION_LARGEST", Kind::generic, Type::u8, 1, largest.data(), 0, false});
+  // Which corner of its file face is the body face's corner 0 (face frames depend on it).
+  if (d.sz.edgebreaker) gattrs.push_back({"FACE_CORNER", Kind::generic, Type::u8, 1, corner.data(), 0, true});
   const dracoio::Encoded genc = dracoio::encode(N, gattrs, nullptr, 0);
   const int g_view = d.bin.add_view(genc.bytes.data(), genc.bytes.size());
   d.sz.gaussians = genc.bytes.size();
@@ -598,7 +677,7 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   // The parts, in file order.
   const RestBody rest = rest_body(a);
   add_body_mesh(d, a, rest, opt);
-  add_skeleton(d, b, rest);
+  add_skeleton(d, b, rest, opt.lossless);
   add_texture(d, a, opt);
   add_gaussians(d, a, opt);
   if (opt.lossless) add_exact_texture(d, a);

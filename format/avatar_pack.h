@@ -1,7 +1,8 @@
 // Avatar -> .glb (format/spec.md). The file is a standard skinned, textured glTF 2.0 mesh
-// (Draco-compressed, sequential so face order is kept) plus the HAHA_gaussian_avatar
-// extension holding the face-bound Gaussians (a Draco point cloud) and what a loader
-// needs to repose and render them exactly like the trainer.
+// (Draco-compressed: edgebreaker, or sequential to keep the body's face order) plus the
+// HAHA_gaussian_avatar extension holding the face-bound Gaussians (a Draco point cloud,
+// their faces given in the file's face order) and what a loader needs to repose and
+// render them exactly like the trainer.
 #pragma once
 
 #include <cstdint>
@@ -14,7 +15,10 @@
 namespace haha {
 
 inline constexpr const char* kAvatarExtension = "HAHA_gaussian_avatar";
-inline constexpr int kAvatarFormatVersion = 1;
+// Version 2: edgebreaker meshes (faces in the encoder's order, FACE_CORNER), rest joints
+// from the inverse bind matrices when there is no joint regressor, optional normals.
+inline constexpr int kAvatarFormatVersion = 2;
+inline constexpr int kOldestAvatarFormatVersion = 1;  // readers still load version 1
 
 // Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).
 // Defaults: one-at-a-time sensitivity on a realistic-size avatar
@@ -32,7 +36,7 @@ struct GaussianBits {
 struct MeshBits {
   int position = 16;  // 15 bits already cost ~6 dB: Gaussians sit at the surface, and the
                       // depth test against the mesh flips with sub-0.1 mm moves
-  int normal = 8;     // octahedral; normals only serve lit viewers
+  int normal = 8;     // octahedral; normals only serve lit viewers (PackOptions::normals)
   int texcoord = 12;
   int weight = 10;
 };
@@ -59,6 +63,12 @@ struct PackOptions {
   bool pose_correctives = false;
   // Lossy mode drops skinning weights below this and renormalises (lossless keeps all).
   float min_skin_weight = 1e-4f;
+  // Draco's sequential mesh encoding, which keeps the body's face order (about 3x larger
+  // than edgebreaker). Lossless packs always use it.
+  bool keep_face_order = false;
+  // Vertex normals in the mesh. The material is unlit, so viewers do not need them (glTF
+  // viewers compute flat normals where a lit material asks); off by default.
+  bool normals = false;
 };
 
 // Bytes per part of a packed file (what `haha info` and the storage report show).
@@ -66,7 +76,7 @@ struct PackedSizes {
   size_t total = 0;
   size_t json = 0;
   size_t mesh = 0;            // Draco mesh (positions, normals, UVs, skin, vertex map)
-  size_t skeleton = 0;        // inverse bind matrices + joint regressor
+  size_t skeleton = 0;        // inverse bind matrices (+ joint regressor in lossless packs)
   size_t gaussians = 0;       // Draco point cloud of the Gaussians
   size_t texture = 0;         // encoded image
   size_t texture_exact = 0;   // float32 texture copy (lossless only)
@@ -77,6 +87,7 @@ struct PackedSizes {
   int num_faces = 0;
   int skin_sets = 0;          // JOINTS_n/WEIGHTS_n sets shipped
   int max_influences = 0;     // largest number of nonzero weights of a vertex in the body
+  bool edgebreaker = false;   // mesh encoded with edgebreaker (faces in the encoder's order)
 };
 
 // Packs the avatar. Throws haha::Error ("avatar: <problem>") on invalid input (sizes,

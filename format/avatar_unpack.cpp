@@ -106,11 +106,11 @@ class AvatarReader {
     if (!ext_) fail(where_, std::string("not a HAHA avatar: the glTF has no ") + kAvatarExtension + " extension");
     if (!ext_->is_object()) fail(where_, E + ": not a JSON object");
     const Json& ver = member(*ext_, "version", where_, E);
-    if (!ver.is_number_integer() || ver.get<int64_t>() != kAvatarFormatVersion) {
-      fail(where_, E + ": unsupported version " + ver.dump() + " (this loader reads version " +
-                       std::to_string(kAvatarFormatVersion) + ")");
+    if (!ver.is_number_integer() || ver.get<int64_t>() < kOldestAvatarFormatVersion || ver.get<int64_t>() > kAvatarFormatVersion) {
+      fail(where_, E + ": unsupported version " + ver.dump() + " (this loader reads versions " +
+                       std::to_string(kOldestAvatarFormatVersion) + " to " + std::to_string(kAvatarFormatVersion) + ")");
     }
-    info_.version = kAvatarFormatVersion;
+    info_.version = int(ver.get<int64_t>());
     jb_ = &member(*ext_, "body", where_, E);
   }
 
@@ -143,6 +143,9 @@ class AvatarReader {
     mesh_dec_ = std::make_unique<dracoio::Decoded>(mesh_bytes.data, mesh_bytes.size, true, where_, "body mesh", gltf_verts, F_);
     const dracoio::Decoded& dec = *mesh_dec_;
     Vg_ = dec.num_points();
+    edgebreaker_ = dec.method() == dracoio::Method::edgebreaker;
+    info_.sizes.edgebreaker = edgebreaker_;
+    if (edgebreaker_ && info_.version < 2) fail(where_, "body mesh: edgebreaker-encoded, which version 1 files never are");
     if (dec.num_faces() != F_) {
       fail(where_, "body mesh: Draco stream has " + std::to_string(dec.num_faces()) + " faces, the file says " + std::to_string(F_));
     }
@@ -150,6 +153,12 @@ class AvatarReader {
     dattrs_ = &member(*kdraco, "attributes", where_, P_ + ".KHR_draco_mesh_compression");
     const std::vector<float> pos = dec.floats(draco_id(*dattrs_, "POSITION", P_), 3, "POSITION");
     const std::vector<float> uvg = dec.floats(draco_id(*dattrs_, "TEXCOORD_0", P_), 2, "TEXCOORD_0");
+    if (const Json* m = find_member(jd, "method")) {
+      const std::string method = as_string(*m, where_, B + ".draco.method");
+      if (method != (edgebreaker_ ? "edgebreaker" : "sequential")) {
+        fail(where_, B + ".draco.method: says '" + method + "' but the Draco stream is " + (edgebreaker_ ? "edgebreaker" : "sequential"));
+      }
+    }
     const Json& mpriv = member(jd, "attributes", where_, B + ".draco");
     source_ = dec.ints(draco_id(mpriv, "BODY_VERTEX", B + ".draco.attributes"), 1, "BODY_VERTEX");
     std::vector<float> uv_src;
@@ -261,8 +270,21 @@ class AvatarReader {
     }
   }
 
-  // The sparse joint regressor (joint, vertex, weight), and the skeleton's byte count.
+  // The sparse joint regressor (joint, vertex, weight), or (version 2 without one) the
+  // rest joints from the inverse bind matrices; and the skeleton's byte count.
   void joint_regressor() {
+    size_t ibm_bytes = 0;
+    const Json* ibm = find_member(*skin_, "inverseBindMatrices");
+    if (ibm) {
+      const Json& acc = element(root_, "accessors", as_int(*ibm, where_, "skin.inverseBindMatrices", 0, kMaxCount), where_);
+      if (const Json* bv = find_member(acc, "bufferView")) ibm_bytes = glb::buffer_view(g_, int(as_int(*bv, where_, "accessor.bufferView", 0, kMaxCount)), where_).size;
+    }
+    info_.sizes.skeleton += ibm_bytes;
+    if (!find_member(*jb_, "jointRegressor")) {
+      if (info_.version < 2) fail(where_, B + ".jointRegressor: missing");
+      rest_joints_from_inverse_binds(ibm);
+      return;
+    }
     const Json& jr = member(*jb_, "jointRegressor", where_, B);
     const int64_t nnz = rd_.integer(jr, "count", B + ".jointRegressor", 0, kNumJoints * V_);
     const glb::ByteSpan jrb = rd_.view(jr, "bufferView", "crc32", B + ".jointRegressor");
@@ -279,11 +301,31 @@ class AvatarReader {
       if (j < 0 || j >= kNumJoints || v < 0 || v >= V_) fail(where_, B + ".jointRegressor: entry " + std::to_string(i) + " out of range");
       body.j_regressor[size_t(j) * V_ + size_t(v)] = w;
     }
-    if (const Json* ibm = find_member(*skin_, "inverseBindMatrices")) {
-      const Json& acc = element(root_, "accessors", as_int(*ibm, where_, "skin.inverseBindMatrices", 0, kMaxCount), where_);
-      if (const Json* bv = find_member(acc, "bufferView")) info_.sizes.skeleton += glb::buffer_view(g_, int(as_int(*bv, where_, "accessor.bufferView", 0, kMaxCount)), where_).size;
-    }
     info_.sizes.skeleton += jrb.size;
+  }
+
+  // Joint j rests at minus the translation of its inverse bind matrix (spec section 2):
+  // float negation is exact, so these are the packer's joints bit for bit.
+  void rest_joints_from_inverse_binds(const Json* ibm) {
+    const std::string what = "skin.inverseBindMatrices";
+    if (!ibm) fail(where_, what + ": missing (a file without a joint regressor needs them for the rest joints)");
+    const Json& acc = element(root_, "accessors", as_int(*ibm, where_, what, 0, kMaxCount), where_);
+    if (rd_.integer(acc, "componentType", what, 0, kMaxCount) != 5126 || as_string(member(acc, "type", where_, what), where_, what + ".type") != "MAT4" ||
+        rd_.integer(acc, "count", what, 0, kMaxCount) != kNumJoints) {
+      fail(where_, what + ": must be 55 float MAT4");
+    }
+    const glb::ByteSpan s = glb::buffer_view(g_, int(rd_.integer(acc, "bufferView", what, 0, kMaxCount)), where_);
+    const int64_t offset = find_member(acc, "byteOffset") ? rd_.integer(acc, "byteOffset", what, 0, kMaxCount) : 0;
+    if (size_t(offset) + size_t(kNumJoints) * 64 > s.size) fail(where_, what + ": accessor runs past its bufferView");
+    std::vector<float>& J = a_.body.joints_rest;
+    J.resize(size_t(kNumJoints) * 3);
+    for (int j = 0; j < kNumJoints; ++j)
+      for (int k = 0; k < 3; ++k) {
+        float t;
+        std::memcpy(&t, s.data + offset + j * 64 + (12 + k) * 4, 4);
+        if (!std::isfinite(t)) fail(where_, what + ": non-finite value");
+        J[size_t(j) * 3 + k] = -t;
+      }
   }
 
   // Whether the avatar was trained with correctives, and the embedded ones (optional).
@@ -374,6 +416,7 @@ class AvatarReader {
       }
       bg.face[size_t(i)] = int32_t(face[size_t(i)]);
     }
+    if (edgebreaker_) face_corners(gdec, draco_id(gids, "FACE_CORNER", GA));
     bg.offset = gdec.floats(draco_id(gids, "OFFSET", GA), 3, "OFFSET");
     if (info_.rotation_encoding == "wxyz") {
       bg.rotation = gdec.floats(draco_id(gids, "ROTATION", GA), 4, "ROTATION");
@@ -419,6 +462,26 @@ class AvatarReader {
     }
     if (info_.gaussian_bits["OPACITY"] > 0)  // quantization can step just outside [0, 1]
       for (float& o : bg.opacity) o = std::isfinite(o) ? std::min(1.0f, std::max(0.0f, o)) : o;
+  }
+
+  // Edgebreaker rotated the corners of the faces: turn each face that carries Gaussians
+  // back so its corner 0 is the body's (face frames depend on the corner order).
+  void face_corners(const dracoio::Decoded& gdec, int id) {
+    const std::vector<int64_t> corner = gdec.ints(id, 1, "FACE_CORNER");
+    std::vector<int8_t> done(size_t(F_), -1);
+    BodyModel& body = a_.body;
+    for (int64_t i = 0; i < N_; ++i) {
+      const int64_t r = corner[size_t(i)];
+      const size_t f = size_t(a_.gaussians.face[size_t(i)]);
+      if (r < 0 || r > 2) fail(where_, "gaussians: FACE_CORNER " + std::to_string(r) + " out of range at Gaussian " + std::to_string(i));
+      if (done[f] >= 0) {
+        if (done[f] != r) fail(where_, "gaussians: Gaussians on face " + std::to_string(f) + " disagree on FACE_CORNER");
+        continue;
+      }
+      done[f] = int8_t(r);
+      std::rotate(body.faces.begin() + long(f * 3), body.faces.begin() + long(f * 3 + size_t(r)), body.faces.begin() + long(f * 3 + 3));
+      std::rotate(body.ft.begin() + long(f * 3), body.ft.begin() + long(f * 3 + size_t(r)), body.ft.begin() + long(f * 3 + 3));
+    }
   }
 
   // The texture image (its bytes kept as stored), or the exact float32 copy of lossless packs.
@@ -504,6 +567,7 @@ class AvatarReader {
   std::vector<int64_t> source_;   // body vertex of each glTF vertex
   int64_t V_ = 0, F_ = 0, N_ = 0, skin_sets_ = 0;
   int Vg_ = 0;
+  bool edgebreaker_ = false;  // faces in the encoder's order, corners rotated
 };
 
 UnpackedAvatar unpack_impl(const uint8_t* data, size_t size, const std::string& where, const UnpackOptions& opt) {

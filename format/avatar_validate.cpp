@@ -40,7 +40,12 @@ void validate_body(const BodyModel& b, const std::string& where) {
   check_size(b.faces.size(), F * 3, where, "body faces", std::to_string(F) + " x 3");
   check_size(b.parents.size(), kNumJoints, where, "body parents", "55");
   check_size(b.weights.size(), V * kNumJoints, where, "body weights", std::to_string(V) + " x 55");
-  check_size(b.j_regressor.size(), V * kNumJoints, where, "body J_regressor", "55 x " + std::to_string(V));
+  if (b.j_regressor.empty() && !b.joints_rest.empty()) {  // an unpacked avatar: joints stored, shape baked
+    check_size(b.joints_rest.size(), size_t(kNumJoints) * 3, where, "body rest joints", "55 x 3");
+    if (has_shape_blend(b)) fail(where, "body: fixed rest joints but shape directions (the joints would not follow the shape)");
+  } else {
+    check_size(b.j_regressor.size(), V * kNumJoints, where, "body J_regressor", "55 x " + std::to_string(V));
+  }
   if (b.num_shape < 0 || b.num_expr < 0) fail(where, "body: negative shape/expression column count");
   if (!b.shapedirs.empty()) {
     check_size(b.shapedirs.size(), V * 3 * size_t(b.num_shape + b.num_expr), where, "body shapedirs",
@@ -63,6 +68,7 @@ void validate_body(const BodyModel& b, const std::string& where) {
   check_finite(b.v_template, where, "body v_template");
   check_finite(b.weights, where, "body weights");
   check_finite(b.j_regressor, where, "body J_regressor");
+  check_finite(b.joints_rest, where, "body rest joints");
   check_finite(b.shapedirs, where, "body shapedirs");
   check_finite(b.posedirs, where, "body posedirs");
   check_finite(b.vt, where, "body vt");

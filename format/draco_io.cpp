@@ -45,7 +45,7 @@ draco::GeometryAttribute::Type to_draco(Kind k) {
 
 }  // namespace
 
-Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* faces, int num_faces) {
+Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* faces, int num_faces, Method method) {
   const std::string where = "draco encode";
   std::unique_ptr<draco::PointCloud> pc;
   draco::Mesh* mesh = nullptr;
@@ -80,7 +80,10 @@ Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* 
   }
   std::unique_ptr<draco::ExpertEncoder> encoder =
       mesh ? std::make_unique<draco::ExpertEncoder>(*mesh) : std::make_unique<draco::ExpertEncoder>(*pc);
-  encoder->SetEncodingMethod(mesh ? int(draco::MESH_SEQUENTIAL_ENCODING) : int(draco::POINT_CLOUD_SEQUENTIAL_ENCODING));
+  const int draco_method = !mesh ? int(draco::POINT_CLOUD_SEQUENTIAL_ENCODING)
+                           : method == Method::edgebreaker ? int(draco::MESH_EDGEBREAKER_ENCODING)
+                                                           : int(draco::MESH_SEQUENTIAL_ENCODING);
+  encoder->SetEncodingMethod(draco_method);
   // Slowest encoder / decoder settings = best entropy coding; decoding stays fast.
   encoder->SetSpeedOptions(0, 0);
   for (size_t i = 0; i < attrs.size(); ++i) {
@@ -112,7 +115,11 @@ StreamHeader peek(const uint8_t* data, size_t size, const std::string& where, co
     fail(where, what + ": Draco bitstream version " + std::to_string(data[5]) + "." + std::to_string(data[6]) +
                     " (this reader expects 2." + std::to_string(minor) + ")");
   }
-  if (data[8] != 0) fail(where, what + ": not Draco's sequential encoding (the format requires it: it keeps the order)");
+  // Method byte: 0 sequential, 1 edgebreaker (meshes only; point clouds must keep their order).
+  if (data[8] > 1 || (data[8] == 1 && !h.mesh)) {
+    fail(where, what + (h.mesh ? ": unknown Draco mesh encoding" : ": not Draco's sequential encoding (point clouds must keep their order)"));
+  }
+  h.method = data[8] == 1 ? Method::edgebreaker : Method::sequential;
   if ((data[9] | (data[10] << 8)) & 0x8000) fail(where, what + ": unexpected Draco metadata");
   size_t pos = 11;
   auto varint = [&]() {
@@ -128,7 +135,14 @@ StreamHeader peek(const uint8_t* data, size_t size, const std::string& where, co
     }
     fail(where, what + ": corrupt Draco header");
   };
-  if (h.mesh) {
+  if (h.mesh && h.method == Method::edgebreaker) {
+    // Traverser: 0 standard, 2 valence (1, the deprecated predictive one, is refused).
+    if (pos >= size) fail(where, what + ": truncated Draco header");
+    const uint8_t traverser = data[pos++];
+    if (traverser != 0 && traverser != 2) fail(where, what + ": unsupported Draco edgebreaker traversal " + std::to_string(traverser));
+    h.num_points = varint();
+    h.num_faces = varint();
+  } else if (h.mesh) {
     h.num_faces = varint();
     h.num_points = varint();
   } else {
@@ -142,6 +156,10 @@ StreamHeader peek(const uint8_t* data, size_t size, const std::string& where, co
     fail(where, what + ": Draco header claims " + std::to_string(h.num_points) + " points in " + std::to_string(size) +
                     " bytes (corrupt)");
   }
+  if (uint64_t(h.num_faces) > kMaxPointsPerByte * size + 4096) {
+    fail(where, what + ": Draco header claims " + std::to_string(h.num_faces) + " faces in " + std::to_string(size) +
+                    " bytes (corrupt)");
+  }
   return h;
 }
 
@@ -149,6 +167,7 @@ Decoded::Decoded(const uint8_t* data, size_t size, bool expect_mesh, std::string
                  int64_t expected_points, int64_t expected_faces)
     : where_(std::move(where)), what_(std::move(what)) {
   const StreamHeader h = peek(data, size, where_, what_);
+  method_ = h.method;
   if (h.mesh != expect_mesh) fail(where_, what_ + (expect_mesh ? ": Draco stream is not a triangle mesh" : ": Draco stream is not a point cloud"));
   if (expected_points >= 0 && int64_t(h.num_points) != expected_points) {
     fail(where_, what_ + ": Draco stream has " + std::to_string(h.num_points) + " points, the file says " + std::to_string(expected_points));

@@ -1,6 +1,8 @@
-// Draco encode/decode for the avatar format (internal to haha_format). Both the mesh and
-// the Gaussian point cloud use Draco's SEQUENTIAL methods: they keep point and face order
-// (Gaussians refer to faces by index; edgebreaker and kd-tree would reorder them).
+// Draco encode/decode for the avatar format (internal to haha_format). Point clouds use
+// Draco's SEQUENTIAL method (it keeps point order). Meshes use SEQUENTIAL (face and point
+// order kept: lossless and version-1 files) or EDGEBREAKER (about 3x smaller; it reorders
+// points and faces and rotates each face's corners, so the packer records what the
+// Gaussians need: format/spec.md, "faceCorner").
 #pragma once
 
 #include <cstdint>
@@ -17,6 +19,7 @@ namespace haha::dracoio {
 
 enum class Kind { position, normal, texcoord, generic };
 enum class Type { f32, i32, u8, u16, u32 };
+enum class Method { sequential, edgebreaker };
 
 // One attribute to encode: `components` values per point, `count` points, tightly packed.
 struct AttrIn {
@@ -37,17 +40,21 @@ struct Encoded {
   std::vector<int> unique_ids;  // per AttrIn, the Draco attribute unique id
 };
 
-// faces == nullptr: a point cloud; else a triangle mesh with `num_faces` faces.
-// Throws haha::Error (where = "draco encode") if Draco refuses.
-Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* faces, int num_faces);
+// faces == nullptr: a point cloud (always sequential); else a triangle mesh with
+// `num_faces` faces, encoded with `method`. Throws haha::Error (where = "draco encode") if
+// Draco refuses.
+Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* faces, int num_faces,
+               Method method = Method::sequential);
 
 // What the header of a Draco stream claims, read without decoding it. Only the bitstream
 // this project writes is accepted: Draco 1.5's bitstream (mesh 2.2, point cloud 2.3),
-// sequential method, no metadata.
+// sequential point clouds, sequential or edgebreaker (standard or valence) meshes, no
+// metadata.
 struct StreamHeader {
   bool mesh = false;
-  uint32_t num_points = 0;
-  uint32_t num_faces = 0;  // meshes only
+  Method method = Method::sequential;
+  uint32_t num_points = 0;  // edgebreaker: the connectivity's vertex count (= points in our files)
+  uint32_t num_faces = 0;   // meshes only
 };
 // Throws haha::Error "<where>: <what>: ..." if the header is not of that form.
 StreamHeader peek(const uint8_t* data, size_t size, const std::string& where, const std::string& what);
@@ -68,6 +75,7 @@ class Decoded {
   Decoded(Decoded&&) noexcept;
   int num_points() const;
   int num_faces() const;                 // 0 for a point cloud
+  Method method() const { return method_; }
   std::vector<int32_t> faces() const;    // (F, 3) point indices, checked < num_points
   // Values of the attribute with this unique id, `components` per point, converted from
   // the stored integer/float type. `expect` lists the acceptable stored types.
@@ -81,6 +89,7 @@ class Decoded {
   std::unique_ptr<draco::PointCloud> pc_;
   const draco::Mesh* mesh_ = nullptr;
   std::string where_, what_;
+  Method method_ = Method::sequential;
 };
 
 }  // namespace haha::dracoio

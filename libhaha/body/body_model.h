@@ -35,6 +35,9 @@ struct BodyModel {
   std::vector<float> v_template;   // (V, 3)
   std::vector<int32_t> faces;      // (F, 3)
   std::vector<float> j_regressor;  // (55, V) dense, as in the file
+  // (55, 3) fixed rest joints, used instead of j_regressor when that is empty. Only for a
+  // body whose shape is baked (no shapedirs): an unpacked avatar file without a regressor.
+  std::vector<float> joints_rest;
   std::vector<int32_t> parents;    // (55), parents[0] = -1
   std::vector<float> weights;      // (V, 55) skinning weights
   // (V, 3, num_shape + num_expr): columns 0..num_shape-1 shape, then expression.

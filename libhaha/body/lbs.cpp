@@ -62,7 +62,14 @@ LbsModelData<T> lbs_model_data(const BodyModel& model) {
   if (model.num_shape < 0 || model.num_expr < 0) fail(where, "shapedirs: negative column count");
   check("v_template", model.v_template.size(), size_t(V) * 3);
   check("weights", model.weights.size(), size_t(V) * kJ);
-  check("J_regressor", model.j_regressor.size(), size_t(kJ) * V);
+  const bool fixed_joints = model.j_regressor.empty() && !model.joints_rest.empty();
+  if (fixed_joints) {
+    check("joints_rest", model.joints_rest.size(), size_t(kJ) * 3);
+    for (float x : model.shapedirs)
+      if (x != 0.0f) fail(where, "fixed rest joints (no J_regressor) need a body without shape directions");
+  } else {
+    check("J_regressor", model.j_regressor.size(), size_t(kJ) * V);
+  }
   check("kintree_table", model.parents.size(), kJ);
   check("shapedirs", model.shapedirs.size(), size_t(V) * 3 * S);
   if (!model.posedirs.empty()) check("posedirs", model.posedirs.size(), size_t(V) * 3 * kNumPoseFeatures);
@@ -88,7 +95,9 @@ LbsModelData<T> lbs_model_data(const BodyModel& model) {
   d->j_template.assign(size_t(kJ) * 3, T(0));
   d->j_shapedirs.assign(size_t(kJ) * 3 * S, T(0));
   std::vector<double> jt(3), js(size_t(3) * S);
-  for (int j = 0; j < kJ; ++j) {
+  for (int j = 0; j < kJ && fixed_joints; ++j)
+    for (int c = 0; c < 3; ++c) d->j_template[3 * j + c] = T(model.joints_rest[3 * size_t(j) + c]);
+  for (int j = 0; j < kJ && !fixed_joints; ++j) {
     std::fill(jt.begin(), jt.end(), 0.0);
     std::fill(js.begin(), js.end(), 0.0);
     const float* reg = model.j_regressor.data() + size_t(j) * V;

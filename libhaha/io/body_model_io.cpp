@@ -83,7 +83,10 @@ BodyModel load_body_model(const std::string& path) {
   m.num_faces = int(F);
   m.faces = r.ints("f", {F, 3}, 0, V);
 
-  m.j_regressor = r.floats("J_regressor", {kJ, V});
+  // `joints_rest` (55, 3), this project's own key: the fixed rest joints of a body whose
+  // shape is baked (an unpacked avatar); then J_regressor may be absent.
+  if (r.has("joints_rest")) m.joints_rest = r.floats("joints_rest", {kJ, 3});
+  if (m.joints_rest.empty() || r.has("J_regressor")) m.j_regressor = r.floats("J_regressor", {kJ, V});
   m.weights = r.floats("weights", {V, kJ});
 
   // kintree_table row 0 = parents. parents[0] is stored as -1, 2^32-1 or anything: it
@@ -149,7 +152,8 @@ void save_body_model(const BodyModel& m, const std::string& path) {
   };
   need("v_template", m.v_template.size(), size_t(V) * 3);
   need("f", m.faces.size(), size_t(F) * 3);
-  need("J_regressor", m.j_regressor.size(), size_t(kJ) * V);
+  if (m.joints_rest.empty() || !m.j_regressor.empty()) need("J_regressor", m.j_regressor.size(), size_t(kJ) * V);
+  if (!m.joints_rest.empty()) need("joints_rest", m.joints_rest.size(), size_t(kJ) * 3);
   need("weights", m.weights.size(), size_t(V) * kJ);
   need("kintree_table", m.parents.size(), kJ);
   need("shapedirs", m.shapedirs.size(), size_t(V) * 3 * (m.num_shape + m.num_expr));
@@ -157,7 +161,8 @@ void save_body_model(const BodyModel& m, const std::string& path) {
   Npz z(path);
   z.set("v_template", NpyArray::from(m.v_template, {V, 3}));
   z.set("f", NpyArray::from(m.faces, {F, 3}));
-  z.set("J_regressor", NpyArray::from(m.j_regressor, {kJ, V}));
+  if (!m.j_regressor.empty()) z.set("J_regressor", NpyArray::from(m.j_regressor, {kJ, V}));
+  if (!m.joints_rest.empty()) z.set("joints_rest", NpyArray::from(m.joints_rest, {kJ, 3}));
   z.set("weights", NpyArray::from(m.weights, {V, kJ}));
   std::vector<int64_t> kt(2 * kJ);
   for (int j = 0; j < kJ; ++j) {

@@ -32,6 +32,9 @@ void expect_error(const std::vector<uint8_t>& bytes, const std::string& needle, 
 struct Fixture {
   Avatar avatar = test::make_test_avatar(200);
   std::vector<uint8_t> lossy = pack_avatar(avatar, PackOptions{});
+  // The test body's degenerate face keeps the default pack sequential; without it the
+  // mesh is edgebreaker-encoded.
+  std::vector<uint8_t> edgebreaker = pack_avatar(test::without_degenerate_face(avatar), PackOptions{});
   std::vector<uint8_t> lossless = [this] {
     PackOptions o;
     o.lossless = true;
@@ -108,10 +111,44 @@ TEST(FormatBadInput, TruncatedAtEveryRegion) {
 }
 
 TEST(FormatBadInput, WrongExtensionVersion) {
-  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 2; }),
-               "unsupported version 2");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 3; }),
+               "unsupported version 3");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 0; }),
+               "unsupported version 0");
+  // Version 1 had a joint regressor in every file.
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 1; }),
+               "jointRegressor: missing");
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = "1"; }),
                "unsupported version");
+}
+
+// Version-2 parts that a corrupt file can get wrong: an edgebreaker mesh in a version-1
+// file, a method that contradicts the stream, FACE_CORNER out of range or inconsistent,
+// rest joints without usable inverse bind matrices.
+TEST(FormatBadInput, Version2Parts) {
+  const Fixture& f = fx();
+  ASSERT_TRUE(unpack_avatar(f.edgebreaker.data(), f.edgebreaker.size(), kName).info.sizes.edgebreaker);
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) {
+                 j["extensions"]["HAHA_gaussian_avatar"]["version"] = 1;
+                 j["extensions"]["HAHA_gaussian_avatar"]["body"]["jointRegressor"] = {{"bufferView", 0}, {"count", 0}, {"crc32", 0}};
+               }),
+               "edgebreaker-encoded, which version 1 files never are");
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"]["method"] = "sequential"; }),
+               "draco.method: says 'sequential'");
+  // FACE_CORNER pointed at ROTATION_LARGEST (values 0..3, unrelated to the faces).
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) {
+                 auto& ga = j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["attributes"];
+                 ga["FACE_CORNER"] = ga["ROTATION_LARGEST"];
+               }),
+               "FACE_CORNER");
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["attributes"].erase("FACE_CORNER"); }),
+               "FACE_CORNER");
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) { j["skins"][0].erase("inverseBindMatrices"); }),
+               "inverseBindMatrices: missing");
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) { j["accessors"][j["skins"][0]["inverseBindMatrices"].get<int>()]["count"] = 54; }),
+               "must be 55 float MAT4");
+  expect_error(edited(f.edgebreaker, [](Json& j, auto&) { j["accessors"][j["skins"][0]["inverseBindMatrices"].get<int>()]["byteOffset"] = 64; }),
+               "runs past its bufferView");
 }
 
 TEST(FormatBadInput, MissingExtensionOrUnsupportedRequirement) {

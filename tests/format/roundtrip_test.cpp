@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <random>
 #include <cstring>
 
 #include "core/error.h"
+#include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
 #include "format/draco_io.h"
@@ -208,6 +211,84 @@ TEST(FormatRoundTrip, PackedMeshKeepsBodyFaceOrderInTheGltf) {
   for (size_t c = 0; c < f.size(); ++c) ASSERT_EQ(map[size_t(f[c])], a.body.faces[c]) << "corner " << c;
   // The indices accessor announces exactly F * 3 indices.
   EXPECT_EQ(g.json["accessors"][g.json["meshes"][0]["primitives"][0]["indices"].get<int>()]["count"].get<int>(), a.body.num_faces * 3);
+}
+
+// Posed Gaussians (mean, rotation up to sign, scale) of an unpacked avatar, sorted so two
+// files with the Gaussians in different orders compare element by element.
+std::vector<std::array<float, 10>> posed_gaussians(const Avatar& a, const SmplxParams& p) {
+  AvatarRuntime rt(a);
+  PosedAvatar posed;
+  rt.repose(p, posed);
+  std::vector<std::array<float, 10>> out(size_t(posed.num_gaussians));
+  for (int i = 0; i < posed.num_gaussians; ++i) {
+    auto& g = out[size_t(i)];
+    const float sign = posed.quats[size_t(i) * 4] < 0 ? -1.0f : 1.0f;
+    for (int k = 0; k < 3; ++k) g[size_t(k)] = posed.means[size_t(i) * 3 + k];
+    for (int k = 0; k < 4; ++k) g[size_t(3 + k)] = sign * posed.quats[size_t(i) * 4 + k];
+    for (int k = 0; k < 3; ++k) g[size_t(7 + k)] = posed.scales[size_t(i) * 3 + k];
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Edgebreaker reorders the faces and rotates their corners; with FACE_CORNER the reader
+// gives every Gaussian its body face corner for corner, so the file reposes exactly like
+// the sequential one (same quantization, so the same rest vertices).
+TEST(FormatRoundTrip, EdgebreakerFileReposesLikeTheBodyFaceOrder) {
+  const Avatar a = test::without_degenerate_face(test::make_test_avatar(400));
+  PackOptions eb_opt, seq_opt;
+  seq_opt.keep_face_order = true;
+  PackedSizes eb_sz, seq_sz;
+  const std::vector<uint8_t> eb = pack_avatar(a, eb_opt, &eb_sz), seq = pack_avatar(a, seq_opt, &seq_sz);
+  ASSERT_TRUE(eb_sz.edgebreaker);
+  ASSERT_FALSE(seq_sz.edgebreaker);
+  EXPECT_LT(eb_sz.mesh, seq_sz.mesh);
+  const UnpackedAvatar ue = unpack_avatar(eb.data(), eb.size(), "eb.glb"), us = unpack_avatar(seq.data(), seq.size(), "seq.glb");
+  EXPECT_TRUE(ue.info.sizes.edgebreaker);
+  EXPECT_EQ(us.avatar.body.faces, a.body.faces);
+  EXPECT_NE(ue.avatar.body.faces, a.body.faces);  // the encoder's order
+  // Each Gaussian's face, corner by corner, is its body face.
+  std::vector<std::array<int32_t, 3>> want, got;
+  for (int32_t f : a.gaussians.face) want.push_back({a.body.faces[size_t(f) * 3], a.body.faces[size_t(f) * 3 + 1], a.body.faces[size_t(f) * 3 + 2]});
+  const BodyModel& be = ue.avatar.body;
+  for (int32_t f : ue.avatar.gaussians.face) got.push_back({be.faces[size_t(f) * 3], be.faces[size_t(f) * 3 + 1], be.faces[size_t(f) * 3 + 2]});
+  std::sort(want.begin(), want.end());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(want, got);
+  // And they repose identically under a strong pose.
+  SmplxParams p;
+  std::mt19937 rng(3);
+  std::normal_distribution<float> n(0.0f, 0.4f);
+  for (float& x : p.pose) x = n(rng);
+  p.transl = {0.1f, -0.2f, 0.3f};
+  const auto ge = posed_gaussians(ue.avatar, p), gs = posed_gaussians(us.avatar, p);
+  ASSERT_EQ(ge.size(), gs.size());
+  float worst = 0;
+  for (size_t i = 0; i < ge.size(); ++i)
+    for (size_t k = 0; k < 10; ++k) worst = std::max(worst, std::fabs(ge[i][k] - gs[i][k]));
+  EXPECT_LT(worst, 1e-5f);
+  // Both readers' rest joints: the regressor is gone, the inverse bind matrices hold them.
+  EXPECT_TRUE(ue.avatar.body.j_regressor.empty());
+  EXPECT_EQ(ue.avatar.body.joints_rest.size(), size_t(kNumJoints) * 3);
+}
+
+// A version-1 file (sequential mesh, joint regressor) still loads: the lossless pack is
+// one apart from its version number.
+TEST(FormatRoundTrip, Version1FileStillLoads) {
+  const Avatar a = test::make_test_avatar(100);
+  PackOptions opt;
+  opt.lossless = true;
+  const std::vector<uint8_t> v2 = pack_avatar(a, opt);
+  glb::Glb g = glb::parse_glb(v2.data(), v2.size(), "v2");
+  g.json["extensions"]["HAHA_gaussian_avatar"]["version"] = 1;
+  g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"].erase("method");
+  const std::vector<uint8_t> v1 = glb::write_glb(g.json, g.bin);
+  const UnpackedAvatar u1 = unpack_avatar(v1.data(), v1.size(), "v1.glb"), u2 = unpack_avatar(v2.data(), v2.size(), "v2.glb");
+  EXPECT_EQ(u1.info.version, 1);
+  EXPECT_EQ(u2.info.version, kAvatarFormatVersion);
+  EXPECT_EQ(u1.avatar.body.faces, u2.avatar.body.faces);
+  EXPECT_TRUE(bit_equal(u1.avatar.body.j_regressor, a.body.j_regressor));
+  EXPECT_TRUE(bit_equal(u1.avatar.gaussians.offset, u2.avatar.gaussians.offset));
 }
 
 TEST(FormatRoundTrip, TextureOptions) {

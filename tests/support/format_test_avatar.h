@@ -111,4 +111,17 @@ inline Avatar make_test_avatar(int num_gaussians = 300, uint32_t seed = 2, int t
   return a;
 }
 
+// The test avatar without its degenerate last face (Gaussians on it move to face 0):
+// Draco's edgebreaker drops degenerate faces, so only such a body is packed with it.
+inline Avatar without_degenerate_face(Avatar a) {
+  BodyModel& b = a.body;
+  const int last = b.num_faces - 1;
+  b.faces.resize(size_t(last) * 3);
+  b.ft.resize(size_t(last) * 3);
+  b.num_faces = last;
+  for (int32_t& f : a.gaussians.face)
+    if (f == last) f = 0;
+  return a;
+}
+
 }  // namespace haha::test

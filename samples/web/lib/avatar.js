@@ -5,7 +5,10 @@
 //   rest vertices: the body mesh's first glTF vertex of each body vertex (BODY_VERTEX)
 //   weights:       all JOINTS_n / WEIGHTS_n sets summed per body vertex, renormalised when
 //                  the weights are quantized (negatives dropped), as the unpacker does
-//   joints:        regressed from the rest vertices (sparse jointRegressor)
+//   joints:        regressed from the rest vertices (sparse jointRegressor), or, in version-2
+//                  files without one, minus the inverse bind matrices' translations
+//   faces:         edgebreaker meshes (version 2) list faces in the encoder's order with
+//                  rotated corners: a face carrying Gaussians is turned back by FACE_CORNER
 //   LBS:           v' = sum_j w_j A_j (v + pose correctives) + transl, A_j = G_j [I | -J_j]
 //   face frames:   T, R = [e | n | e x n], k = (|v0 - v2| + h) / 2 / scaleDivisor, with the
 //                  degenerate-triangle rules of body/face_frames.h
@@ -36,7 +39,7 @@ export class Avatar {
     const fail = (m) => { throw new Error(`${name}: ${m}`); };
     const ext = root.extensions && root.extensions[EXT];
     if (!ext) fail(`not a HAHA avatar: the glTF has no ${EXT} extension`);
-    if (ext.version !== 1) fail(`${EXT}: unsupported version ${ext.version} (this viewer reads version 1)`);
+    if (ext.version !== 1 && ext.version !== 2) fail(`${EXT}: unsupported version ${ext.version} (this viewer reads versions 1 and 2)`);
     this.glb = glb;
     this.ext = ext;
     const jb = ext.body;
@@ -46,7 +49,7 @@ export class Avatar {
     this.divisor = ext.faceFrame.scaleDivisor;
     this.depthMargin = ext.depthTest ? ext.depthTest.margin : 0;
 
-    // --- body mesh (Draco, sequential: glTF vertex and face order preserved) ---
+    // --- body mesh (Draco: sequential keeps the body's face order, edgebreaker does not) ---
     const prim = root.meshes[jb.mesh].primitives[0];
     const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
     if (!kd) fail('body mesh: not Draco-compressed');
@@ -123,15 +126,26 @@ export class Avatar {
     this.parents = this.jointNodes.map((n) => this.jointNodes.indexOf(nodeParent[n]));
     for (let j = 1; j < NUM_JOINTS; j++) if (this.parents[j] < 0 || this.parents[j] >= j) fail('skin: joints not in parent-first order');
 
-    // --- joints regressed from the rest vertices ---
-    const jr = jb.jointRegressor;
-    const jrb = glb.checkedView(jr.bufferView, jr.crc32, 'body.jointRegressor');
-    const nnz = jr.count;
-    const jrv = new DataView(jrb.buffer, jrb.byteOffset, jrb.byteLength);
+    // --- rest joints: regressed from the rest vertices, or stored in the inverse bind matrices ---
     const J = new Float64Array(3 * NUM_JOINTS);
-    for (let i = 0; i < nnz; i++) {
-      const j = jrv.getInt32(4 * i, true), v = jrv.getInt32(4 * nnz + 4 * i, true), w = jrv.getFloat32(8 * nnz + 4 * i, true);
-      for (let c = 0; c < 3; c++) J[3 * j + c] += w * rest[3 * v + c];
+    const jr = jb.jointRegressor;
+    if (jr) {
+      const jrb = glb.checkedView(jr.bufferView, jr.crc32, 'body.jointRegressor');
+      const nnz = jr.count;
+      const jrv = new DataView(jrb.buffer, jrb.byteOffset, jrb.byteLength);
+      for (let i = 0; i < nnz; i++) {
+        const j = jrv.getInt32(4 * i, true), v = jrv.getInt32(4 * nnz + 4 * i, true), w = jrv.getFloat32(8 * nnz + 4 * i, true);
+        for (let c = 0; c < 3; c++) J[3 * j + c] += w * rest[3 * v + c];
+      }
+    } else {
+      if (ext.version < 2) fail('body.jointRegressor: missing');
+      const acc = root.accessors[skin.inverseBindMatrices];
+      if (!acc || acc.type !== 'MAT4' || acc.componentType !== 5126 || acc.count !== NUM_JOINTS) fail('skin.inverseBindMatrices: must be 55 float MAT4');
+      const ib = glb.view(acc.bufferView);
+      const off = acc.byteOffset || 0;
+      if (off + 64 * NUM_JOINTS > ib.byteLength) fail('skin.inverseBindMatrices: accessor runs past its bufferView');
+      const dv = new DataView(ib.buffer, ib.byteOffset + off, 64 * NUM_JOINTS);
+      for (let j = 0; j < NUM_JOINTS; j++) for (let c = 0; c < 3; c++) J[3 * j + c] = -dv.getFloat32(64 * j + 4 * (12 + c), true);
     }
     this.restJoints = J;
 
@@ -169,9 +183,24 @@ export class Avatar {
       const gids = { FACE: ga.FACE, OFFSET: ga.OFFSET, ROTATION: ga.ROTATION, SCALE: ga.SCALE, COLOR: ga.COLOR, OPACITY: ga.OPACITY };
       const gtypes = { FACE: 'Int32Array', OFFSET: 'Float32Array', ROTATION: 'Float32Array', SCALE: 'Float32Array', COLOR: 'Float32Array', OPACITY: 'Float32Array' };
       if (smallest3) { gids.ROTATION_LARGEST = ga.ROTATION_LARGEST; gtypes.ROTATION_LARGEST = 'Int32Array'; }
+      const edgebreaker = jb.draco.method === 'edgebreaker';
+      if (edgebreaker) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
       const g = await decode(gbytes, gids, gtypes);
       if (g.FACE.length !== N) fail(`gaussians: Draco stream has ${g.FACE.length} points, the file says ${N}`);
       for (let i = 0; i < N; i++) if (g.FACE[i] < 0 || g.FACE[i] >= F) fail(`gaussians: Gaussian ${i} refers to face ${g.FACE[i]}`);
+      if (edgebreaker) {  // turn each Gaussian-carrying face so its corner 0 is the body's
+        const done = new Int8Array(F).fill(-1);
+        for (let i = 0; i < N; i++) {
+          const f = g.FACE[i], r = g.FACE_CORNER[i];
+          if (r < 0 || r > 2) fail(`gaussians: FACE_CORNER ${r} out of range`);
+          if (done[f] >= 0) { if (done[f] !== r) fail(`gaussians: Gaussians on face ${f} disagree on FACE_CORNER`); continue; }
+          done[f] = r;
+          for (const arr of [this.faces, this.gltfFaces]) {
+            const c = [arr[3 * f], arr[3 * f + 1], arr[3 * f + 2]];
+            for (let k = 0; k < 3; k++) arr[3 * f + k] = c[(k + r) % 3];
+          }
+        }
+      }
       // Float32 arrays, as the C++ loader keeps them.
       const rot = new Float32Array(4 * N);
       if (smallest3) {
