@@ -16,6 +16,7 @@
 #include "app/train_frames.h"
 #include "core/error.h"
 #include "data/dataset.h"
+#include "format/avatar_pack.h"
 
 namespace haha {
 
@@ -217,7 +218,19 @@ BenchResult run_bench(const BenchRunOptions& o) {
   }
   if (!skip.count("packing")) {
     section("packing", [&] {
-      r.packing = sweep_packing(filtered, default_pack_settings(filtered.texture.width), ev, log);
+      std::vector<PackSetting> settings = default_pack_settings(filtered.texture.width);
+      std::istringstream sets(o.gaussian_bit_sets);
+      for (std::string spec; std::getline(sets, spec, ';');) {
+        if (spec.empty()) continue;
+        PackSetting p;
+        p.name = "Gaussians " + spec;
+        p.group = "gaussian allocation";
+        p.gaussian_bits_spec = spec;
+        p.texture_codec = "png";  // lossless 8-bit: the Gaussians' cost alone
+        parse_gaussian_bits(spec, "--gaussian-bit-sets");  // refuse a bad entry before measuring anything
+        settings.push_back(p);
+      }
+      r.packing = sweep_packing(filtered, settings, ev, log);
     });
     r.notes.push_back("Packing: PSNR vs original compares renders of the unpacked .glb with renders of the trained "
                       "avatar on the same poses; the unpacked avatar uses the body model's pose correctives (as "

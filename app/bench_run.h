@@ -22,6 +22,8 @@ struct BenchRunOptions {
   std::string thresholds;     // opacity pruning thresholds, comma-separated (empty: default set)
   std::string resolutions = "128,256,512,1024";
   std::string threads;        // CPU thread counts of the render sweep (empty: 1 and all)
+  // Extra packing points: per-attribute Gaussian bits, ';'-separated ("offset=10,rotation=6;...").
+  std::string gaussian_bit_sets;
   int frames = 0, tto_steps = 0, repeats = 5, count_resolution = 512, retrain_steps = 0;
 };
 

@@ -91,6 +91,7 @@ struct PackSetting {
   std::string group;         // "gaussian bits", "texture", "reference"
   bool lossless = false;     // float32 everywhere (the bit-exact reference)
   int gaussian_bits = -1;    // every Gaussian attribute; -1 = the format's defaults
+  std::string gaussian_bits_spec;  // per attribute ("offset=10,rotation=6"); overrides gaussian_bits
   std::string texture_codec = "jpg";  // png | jpg | webp
   int texture_quality = 95;
   int texture_size = 0;      // 0 = the trained size

@@ -30,5 +30,7 @@ HAHA_COMMAND(bench) {
   sub->add_option("--render-threads", o->threads, "CPU thread counts of the render sweep (default: 1 and all)");
   sub->add_option("--repeats", o->repeats, "timed renders per point (median reported)")->capture_default_str();
   sub->add_option("--skip", o->skip, "sections to leave out: training,filtering,retrain,packing,render");
+  sub->add_option("--gaussian-bit-sets", o->gaussian_bit_sets,
+                  "extra packing points with per-attribute Gaussian bits, ';'-separated, e.g. \"offset=10,rotation=6;offset=12\"");
   sub->callback([o] { haha::run_bench(*o); });
 }

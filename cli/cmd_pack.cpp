@@ -2,9 +2,7 @@
 // app/run_dir.h) -> one .glb avatar (format/spec.md).
 #include <cstdio>
 #include <filesystem>
-#include <map>
 #include <memory>
-#include <sstream>
 #include <string>
 
 #include "app/run_dir.h"
@@ -13,37 +11,6 @@
 #include "format/avatar_npz.h"
 #include "format/avatar_pack.h"
 #include "io/body_model_io.h"
-
-namespace {
-
-// "14" (every key) or "offset=14,rotation=12": bits per named attribute, 0 = float32.
-void parse_bits(const std::string& text, const char* option, std::map<std::string, int*> keys) {
-  auto number = [&](const std::string& s) {
-    char* end = nullptr;
-    const long v = std::strtol(s.c_str(), &end, 10);
-    if (s.empty() || *end != '\0' || v < 0 || v > 30) haha::fail(option, "bits must be an integer in 0..30 (0 = float32), got '" + s + "'");
-    return int(v);
-  };
-  if (text.find('=') == std::string::npos) {
-    const int b = number(text);
-    for (auto& [k, p] : keys) *p = b;
-    return;
-  }
-  std::istringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    const size_t eq = item.find('=');
-    const std::string key = item.substr(0, eq);
-    if (eq == std::string::npos || !keys.count(key)) {
-      std::string known;
-      for (auto& [k, p] : keys) known += (known.empty() ? "" : ", ") + k;
-      haha::fail(option, "unknown entry '" + item + "' (keys: " + known + ")");
-    }
-    *keys[key] = number(item.substr(eq + 1));
-  }
-}
-
-}  // namespace
 
 HAHA_COMMAND(pack) {
   struct Opts {
@@ -94,14 +61,10 @@ HAHA_COMMAND(pack) {
     opt.normals = o->normals;
     if (o->texture_size < 0) haha::fail("--texture-size", "must be positive");
     if (!o->gaussian_bits.empty()) {
-      auto& g = opt.gaussian_bits;
-      parse_bits(o->gaussian_bits, "--gaussian-bits",
-                 {{"offset", &g.offset}, {"rotation", &g.rotation}, {"scale", &g.scale}, {"color", &g.color}, {"opacity", &g.opacity}});
+      opt.gaussian_bits = haha::parse_gaussian_bits(o->gaussian_bits, "--gaussian-bits");
     }
     if (!o->mesh_bits.empty()) {
-      auto& m = opt.mesh_bits;
-      parse_bits(o->mesh_bits, "--mesh-bits",
-                 {{"position", &m.position}, {"normal", &m.normal}, {"texcoord", &m.texcoord}, {"weight", &m.weight}});
+      opt.mesh_bits = haha::parse_mesh_bits(o->mesh_bits, "--mesh-bits");
     }
     if (o->lossless && (!o->gaussian_bits.empty() || !o->mesh_bits.empty())) {
       haha::fail("--lossless", "stores float32 everywhere; it cannot be combined with --gaussian-bits/--mesh-bits");

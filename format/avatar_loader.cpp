@@ -1,22 +1,42 @@
 #include "format/avatar_loader.h"
 
 #include <algorithm>
+#include <array>
 
 #include "body/face_frames.h"
 #include "body/lbs.h"
 #include "core/error.h"
 #include "format/avatar_unpack.h"
 #include "format/avatar_validate.h"
-#include "format/glb.h"
 
 namespace haha {
+
+namespace {
+
+// Whether two face lists hold the same oriented triangles, in any order and with any
+// rotation of each triangle's corners.
+bool same_oriented_faces(const std::vector<int32_t>& a, const std::vector<int32_t>& b) {
+  if (a.size() != b.size() || a.size() % 3) return false;
+  auto canonical = [](const std::vector<int32_t>& f) {
+    std::vector<std::array<int32_t, 3>> out(f.size() / 3);
+    for (size_t i = 0; i < out.size(); ++i) {
+      const int32_t* c = &f[i * 3];
+      const int s = (c[0] <= c[1] && c[0] <= c[2]) ? 0 : (c[1] <= c[2] ? 1 : 2);
+      out[i] = {c[s], c[(s + 1) % 3], c[(s + 2) % 3]};
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  return canonical(a) == canonical(b);
+}
+
+}  // namespace
 
 struct AvatarRuntime::State {
   Avatar avatar;
   std::unique_ptr<Lbs<float>> lbs;  // points into avatar.body: State never moves (unique_ptr)
   bool shaped = false;              // body has shape directions: apply the avatar's betas
   bool wants_correctives = false;   // the avatar was trained with pose correctives
-  uint32_t topology_crc32 = 0;      // of the body's faces in their original order (files only)
 };
 
 AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
@@ -32,7 +52,6 @@ AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* mode
   UnpackedAvatar u = read_avatar_file(path);
   AvatarRuntime rt(std::move(u.avatar));
   rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
-  rt.s_->topology_crc32 = u.info.topology_crc32;
   if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);
   return rt;
 }
@@ -50,11 +69,9 @@ bool AvatarRuntime::missing_pose_correctives() const { return s_->wants_correcti
 void AvatarRuntime::set_pose_correctives(const BodyModel& model) {
   BodyModel& b = s_->avatar.body;
   const std::string where = model.source.empty() ? "body model" : model.source;
-  // A file's faces may be in the encoder's order: then the checksum of the model's faces
-  // must be the one the packer recorded.
-  const bool same_faces = model.faces == b.faces ||
-                          (s_->topology_crc32 != 0 &&
-                           glb::crc32(reinterpret_cast<const uint8_t*>(model.faces.data()), model.faces.size() * 4) == s_->topology_crc32);
+  // A file's faces may be in the encoder's order, each face's corners rotated: compare
+  // the faces as sets of oriented triangles.
+  const bool same_faces = model.faces == b.faces || same_oriented_faces(model.faces, b.faces);
   if (model.num_verts != b.num_verts || !same_faces) {
     fail(where, "pose correctives: the body model's mesh (" + std::to_string(model.num_verts) +
                     " vertices) is not the avatar's (" + std::to_string(b.num_verts) + ")");

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <array>
 #include <map>
+#include <sstream>
 #include <memory>
 
 #include "body/face_frames.h"
@@ -707,6 +708,47 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   d.sz.json = out.size() - ((d.bin.bytes().size() + 3) / 4 * 4) - 28;
   if (sizes_out) *sizes_out = d.sz;
   return out;
+}
+
+namespace {
+
+// "14" (every key) or "offset=14,rotation=12": bits per named attribute, 0 = float32.
+void parse_bits(const std::string& text, const std::string& option, std::map<std::string, int*> keys) {
+  auto number = [&](const std::string& s) {
+    char* end = nullptr;
+    const long v = std::strtol(s.c_str(), &end, 10);
+    if (s.empty() || *end != '\0' || v < 0 || v > 30) fail(option, "bits must be an integer in 0..30 (0 = float32), got '" + s + "'");
+    return int(v);
+  };
+  if (text.find('=') == std::string::npos) {
+    const int b = number(text);
+    for (auto& [k, p] : keys) *p = b;
+    return;
+  }
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    if (eq == std::string::npos || !keys.count(key)) {
+      std::string known;
+      for (auto& [k, p] : keys) known += (known.empty() ? "" : ", ") + k;
+      fail(option, "unknown entry '" + item + "' (keys: " + known + ")");
+    }
+    *keys[key] = number(item.substr(eq + 1));
+  }
+}
+
+}  // namespace
+
+GaussianBits parse_gaussian_bits(const std::string& text, const std::string& option, GaussianBits g) {
+  parse_bits(text, option, {{"offset", &g.offset}, {"rotation", &g.rotation}, {"scale", &g.scale}, {"color", &g.color}, {"opacity", &g.opacity}});
+  return g;
+}
+
+MeshBits parse_mesh_bits(const std::string& text, const std::string& option, MeshBits m) {
+  parse_bits(text, option, {{"position", &m.position}, {"normal", &m.normal}, {"texcoord", &m.texcoord}, {"weight", &m.weight}});
+  return m;
 }
 
 PackedSizes write_avatar_glb(const Avatar& avatar, const std::string& path, const PackOptions& options) {

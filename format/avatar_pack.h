@@ -21,15 +21,17 @@ inline constexpr int kAvatarFormatVersion = 2;
 inline constexpr int kOldestAvatarFormatVersion = 1;  // readers still load version 1
 
 // Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).
-// Defaults: one-at-a-time sensitivity on a realistic-size avatar
-// (tests/format/storage_slow_test.cpp) keeps each attribute's own cost above ~58 dB and the default
-// pack above 45 dB PSNR against the original's renders.
+// Defaults chosen on the trained demo avatar (`haha bench --gaussian-bit-sets`, 8,887
+// Gaussians, renders of the unpacked file vs the trained avatar on the test poses):
+// 8/6/6/6/5 bits = 7.9 B per Gaussian at 59.9 dB; the former 12/10/8/7/7 = 12.4 B at
+// 62.1 dB; uniform 6 bits 7.3 B at 55.0 dB. One bit less from 8/6/6/6/6 (60.0 dB):
+// offset 9 -> 8 cost 0.55 dB, scale 6 -> 5 0.49 dB, opacity 6 -> 5 0.16 dB (README).
 struct GaussianBits {
-  int offset = 12;    // local offset, uniform over its bounding box
-  int rotation = 10;  // unit quaternion components in [-1, 1]
-  int scale = 8;      // log(scale), uniform over its range
-  int color = 7;      // RGB in [0, 1]
-  int opacity = 7;    // [0, 1]
+  int offset = 8;     // local offset, uniform over its bounding box
+  int rotation = 6;   // "smallest three" quaternion components in [-1/sqrt 2, 1/sqrt 2]
+  int scale = 6;      // log(scale), uniform over its range
+  int color = 6;      // RGB in [0, 1]
+  int opacity = 5;    // [0, 1]
 };
 
 // Draco quantization bits of the glTF mesh; 0 = raw float32.
@@ -40,6 +42,11 @@ struct MeshBits {
   int texcoord = 12;
   int weight = 10;
 };
+
+// "14" (every attribute) or "offset=14,rotation=12" (the others keep `base`); throws
+// haha::Error naming `option` on an unknown key or a value outside 0..30.
+GaussianBits parse_gaussian_bits(const std::string& text, const std::string& option, GaussianBits base = {});
+MeshBits parse_mesh_bits(const std::string& text, const std::string& option, MeshBits base = {});
 
 struct PackOptions {
   // Raw float32 everywhere, a float32 copy of the texture and of the UVs: every trained
