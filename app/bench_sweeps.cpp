@@ -241,7 +241,7 @@ std::vector<PackSetting> default_pack_settings(int tex, std::string default_code
   };
   s.push_back(tex_setting("png", 95, tex));
   for (const char* codec : {"jpg", "webp"})
-    for (int q : {95, 75}) s.push_back(tex_setting(codec, q, tex));
+    for (int q : {95, 90, 85, 75}) s.push_back(tex_setting(codec, q, tex));
   for (int size = tex / 2; size >= 32 && size >= tex / 8; size /= 2)
     s.push_back(tex_setting(default_codec, default_quality, size));
   return s;
