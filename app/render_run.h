@@ -11,6 +11,7 @@ namespace haha {
 
 struct RenderRunOptions {
   std::string avatar;         // .glb
+  int max_gaussians = 0;      // > 0: load only the importance tiers that fit (pack --lod)
   std::string motion;         // AMASS-style motion .npz, or
   std::string params;         // a native SMPL-X parameter file
   std::string out;            // directory for frame_%05d.png

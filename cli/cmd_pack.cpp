@@ -17,6 +17,7 @@ HAHA_COMMAND(pack) {
     std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg";
     int texture_size = 0, texture_quality = 95;
     bool lossless = false, splats = false, correctives = false, keep_face_order = false, normals = false;
+    int lod_tiers = 1;
   };
   auto o = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians, Draco)");
@@ -38,6 +39,9 @@ HAHA_COMMAND(pack) {
   sub->add_flag("--keep-face-order", o->keep_face_order,
                 "Draco sequential mesh encoding: the file keeps the body model's face order (about 3.5x larger mesh)");
   sub->add_flag("--normals", o->normals, "store vertex normals (8-bit octahedral); the unlit material does not need them");
+  sub->add_option("--lod", o->lod_tiers,
+                  "store the Gaussians in N importance tiers (prefixes N/2^(T-1) .. all) so a loader can take a prefix; each "
+                  "prefix's PSNR against the full avatar is measured and stored");
   sub->add_flag("--pose-correctives", o->correctives,
                 "embed the body model's pose-corrective blend shapes (large) so the loader reposes exactly like the trainer");
   sub->callback([o] {
@@ -59,6 +63,7 @@ HAHA_COMMAND(pack) {
     opt.pose_correctives = o->correctives;
     opt.keep_face_order = o->keep_face_order;
     opt.normals = o->normals;
+    opt.lod_tiers = o->lod_tiers;
     if (o->texture_size < 0) haha::fail("--texture-size", "must be positive");
     if (!o->gaussian_bits.empty()) {
       opt.gaussian_bits = haha::parse_gaussian_bits(o->gaussian_bits, "--gaussian-bits");

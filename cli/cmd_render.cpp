@@ -20,6 +20,8 @@ HAHA_COMMAND(render) {
   sub->add_option("--out", o->run.out, "output directory for frame_%05d.png")->required();
   sub->add_option("--model", o->run.model,
                   "body model .npz the avatar was trained on: supplies its pose correctives when the file has none");
+  sub->add_option("--max-gaussians", o->run.max_gaussians,
+                  "of an avatar packed with --lod, load only the importance tiers that fit in N Gaussians (the first always)");
   sub->add_option("--camera", o->run.camera, "cam.json (io/camera_json.h); default: a front camera framing the motion");
   sub->add_option("--size", o->run.size, "image size of the default camera (pixels)")->capture_default_str();
   sub->add_option("--every", o->run.every, "render every N-th frame")->capture_default_str();

@@ -114,6 +114,15 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
   j["rotationEncoding"] = i.rotation_encoding;
   j["gaussianOrder"] = i.gaussian_order;
   j["meshEncoding"] = s.edgebreaker ? "edgebreaker" : "sequential";
+  {
+    nlohmann::json tiers = nlohmann::json::array();
+    for (size_t t = 0; t < i.lod_counts.size(); ++t) {
+      nlohmann::json tier = {{"count", i.lod_counts[t]}};
+      if (std::isfinite(i.lod_psnr[t])) tier["psnr"] = i.lod_psnr[t];
+      tiers.push_back(tier);
+    }
+    j["tiers"] = tiers;
+  }
   j["texture"] = {{"mimeType", i.texture_mime}, {"width", i.texture_width}, {"height", i.texture_height},
                   {"exactFloatCopy", i.texture_exact}};
   j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
@@ -142,6 +151,20 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   o << "  gaussians     " << s.num_gaussians << " (Draco point cloud " << bytes(s.gaussians) << ", " << buf
     << " B/Gaussian; bits " << bits_text(i.gaussian_bits) << ", scale " << i.scale_encoding << ", rotation "
     << i.rotation_encoding << ", order " << i.gaussian_order << ")\n";
+  if (!i.lod_counts.empty()) {
+    o << "  tiers         ";
+    int prefix = 0;
+    for (size_t t = 0; t < i.lod_counts.size(); ++t) {
+      prefix += i.lod_counts[t];
+      std::snprintf(buf, sizeof buf, "%s%d", t ? ", " : "", prefix);
+      o << buf;
+      if (std::isfinite(i.lod_psnr[t])) {
+        std::snprintf(buf, sizeof buf, " (%.1f dB)", i.lod_psnr[t]);
+        o << buf;
+      }
+    }
+    o << " Gaussians: prefixes a loader can take, PSNR vs all in the rest pose\n";
+  }
   o << "  mesh          " << i.body_vertex_count << " body vertices (" << s.num_vertices << " glTF vertices), "
     << s.num_faces << " faces, " << s.skin_sets << " skin set(s) for up to " << s.max_influences
     << " influences (Draco " << (s.edgebreaker ? "edgebreaker " : "sequential ") << bytes(s.mesh) << "; bits "

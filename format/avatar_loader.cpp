@@ -48,8 +48,10 @@ AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
   s_->lbs = std::make_unique<Lbs<float>>(b);
 }
 
-AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* model) {
-  UnpackedAvatar u = read_avatar_file(path);
+AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* model, int max_gaussians) {
+  UnpackOptions options;
+  options.max_gaussians = max_gaussians;
+  UnpackedAvatar u = read_avatar_file(path, options);
   AvatarRuntime rt(std::move(u.avatar));
   rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
   if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);

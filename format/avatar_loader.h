@@ -52,7 +52,9 @@ class AvatarRuntime {
   // Reads and validates a .glb (avatar_unpack.h); throws haha::Error naming the file.
   // `model` (optional): the body model the avatar was trained on, for its pose correctives
   // when the file does not embed them.
-  static AvatarRuntime load(const std::string& path, const BodyModel* model = nullptr);
+  // `max_gaussians` (> 0): of a file with importance tiers (haha pack --lod), load only
+  // the tiers that fit (the first always).
+  static AvatarRuntime load(const std::string& path, const BodyModel* model = nullptr, int max_gaussians = 0);
   // From an in-memory avatar (e.g. straight from the trainer). A body with shape
   // directions is shaped with avatar.betas / avatar.expression; an unpacked (baked) body
   // is used as is, so both repose identically.

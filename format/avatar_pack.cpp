@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "format/avatar_validate.h"
 #include "format/draco_io.h"
+#include "format/gaussian_lod.h"
 #include "format/glb.h"
 
 namespace haha {
@@ -485,30 +486,13 @@ void add_exact_texture(GlbDoc& d, const Avatar& a) {
   d.sz.texture_exact = a.texture.rgb.size() * sizeof(float);
 }
 
-// The face-bound Gaussians as a Draco point cloud with per-attribute quantization.
-void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
-  const bool lossless = opt.lossless;
-  const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
-  const BoundGaussians& G = a.gaussians;
-  const int N = G.size();
-  if (N == 0) {  // filtering removed every Gaussian: no point cloud (Draco has no empty one)
-    d.ext["gaussians"] = {{"count", 0},
-                          {"attributes", Json::object()},
-                          {"quantizationBits", Json::object()},
-                          {"scaleEncoding", lossless ? "linear" : "log"},
-                          {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
-                          {"order", lossless ? "original" : "face"}};
-    return;
-  }
-  // Lossy packs store the Gaussians sorted by (file) face, stably: the face index then
-  // costs ~2 bits instead of ~8, and the render does not depend on the order. Lossless
-  // keeps it.
-  std::vector<int32_t> order(static_cast<size_t>(N));
-  for (int i = 0; i < N; ++i) order[size_t(i)] = i;
-  auto file_face = [&](int32_t i) { return d.file_face[size_t(G.face[size_t(i)])]; };
-  if (!lossless) std::stable_sort(order.begin(), order.end(), [&](int32_t x, int32_t y) { return file_face(x) < file_face(y); });
+// One Draco point cloud of the Gaussians listed in `order` (in that order), with
+// per-attribute quantization; the attribute ids and bits go to `ids` / `bits`.
+dracoio::Encoded encode_gaussians(const GlbDoc& d, const BoundGaussians& G, const std::vector<int32_t>& order, bool lossless,
+                                  const GaussianBits& gb, Json& ids, Json& bits) {
+  const int N = int(order.size());
   auto permuted = [&](const auto& v, int comps) {
-    std::remove_cvref_t<decltype(v)> out(v.size());
+    std::remove_cvref_t<decltype(v)> out(size_t(N) * size_t(comps));
     for (int i = 0; i < N; ++i)
       for (int k = 0; k < comps; ++k) out[size_t(i) * comps + k] = v[size_t(order[size_t(i)]) * comps + k];
     return out;
@@ -516,7 +500,7 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   std::vector<int32_t> face(static_cast<size_t>(N));
   std::vector<uint8_t> corner(static_cast<size_t>(N));
   for (int i = 0; i < N; ++i) {
-    face[size_t(i)] = file_face(order[size_t(i)]);
+    face[size_t(i)] = d.file_face[size_t(G.face[size_t(order[size_t(i)])])];
     corner[size_t(i)] = d.file_corner[size_t(G.face[size_t(order[size_t(i)])])];
   }
   const std::vector<float> offset = permuted(G.offset, 3), color = permuted(G.color, 3), opacity = permuted(G.opacity, 1);
@@ -558,21 +542,64 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   // Which corner of its file face is the body face's corner 0 (face frames depend on it).
   if (d.sz.edgebreaker) gattrs.push_back({"FACE_CORNER", Kind::generic, Type::u8, 1, corner.data(), 0, true});
   const dracoio::Encoded genc = dracoio::encode(N, gattrs, nullptr, 0);
-  const int g_view = d.bin.add_view(genc.bytes.data(), genc.bytes.size());
-  d.sz.gaussians = genc.bytes.size();
-  Json g_ids, g_bits;
+  ids = Json::object();
+  bits = Json::object();
   for (size_t i = 0; i < gattrs.size(); ++i) {
-    g_ids[gattrs[i].name] = genc.unique_ids[i];
-    if (gattrs[i].type == Type::f32) g_bits[gattrs[i].name] = gattrs[i].quant_bits;
+    ids[gattrs[i].name] = genc.unique_ids[i];
+    if (gattrs[i].type == Type::f32) bits[gattrs[i].name] = gattrs[i].quant_bits;
   }
-  d.ext["gaussians"] = {{"count", N},
-                        {"bufferView", g_view},
-                        {"crc32", d.bin.view_crc(g_view)},
-                        {"attributes", g_ids},
-                        {"quantizationBits", g_bits},
-                        {"scaleEncoding", lossless ? "linear" : "log"},
-                        {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
-                        {"order", lossless ? "original" : "face"}};
+  return genc;
+}
+
+// The face-bound Gaussians: one point cloud, or (--lod) one per importance tier. Within a
+// point cloud lossy packs sort the Gaussians by (file) face, stably: the face index then
+// costs ~2 bits instead of ~8, and the render does not depend on the order. Lossless keeps
+// the trainer's order.
+void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
+  const bool lossless = opt.lossless;
+  const GaussianBits gb = lossless ? GaussianBits{0, 0, 0, 0, 0} : opt.gaussian_bits;
+  const BoundGaussians& G = a.gaussians;
+  const int N = G.size();
+  Json& jg = d.ext["gaussians"];
+  jg = {{"count", N},
+        {"attributes", Json::object()},
+        {"quantizationBits", Json::object()},
+        {"scaleEncoding", lossless ? "linear" : "log"},
+        {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
+        {"order", lossless ? "original" : "face"}};
+  if (N == 0) return;  // filtering removed every Gaussian: no point cloud (Draco has no empty one)
+  auto face_sorted = [&](std::vector<int32_t> order) {
+    if (!lossless)
+      std::stable_sort(order.begin(), order.end(), [&](int32_t x, int32_t y) {
+        return d.file_face[size_t(G.face[size_t(x)])] < d.file_face[size_t(G.face[size_t(y)])];
+      });
+    return order;
+  };
+  if (opt.lod_tiers <= 1) {
+    std::vector<int32_t> order(static_cast<size_t>(N));
+    for (int i = 0; i < N; ++i) order[size_t(i)] = i;
+    const dracoio::Encoded genc = encode_gaussians(d, G, face_sorted(order), lossless, gb, jg["attributes"], jg["quantizationBits"]);
+    const int g_view = d.bin.add_view(genc.bytes.data(), genc.bytes.size());
+    d.sz.gaussians = genc.bytes.size();
+    jg["bufferView"] = g_view;
+    jg["crc32"] = d.bin.view_crc(g_view);
+    return;
+  }
+  const LodPlan plan = plan_lod(a, opt.lod_tiers);
+  Json tiers = Json::array();
+  size_t first = 0;
+  for (size_t t = 0; t < plan.counts.size(); ++t) {
+    const std::vector<int32_t> part(plan.order.begin() + long(first), plan.order.begin() + long(first) + plan.counts[t]);
+    first += size_t(plan.counts[t]);
+    const dracoio::Encoded genc = encode_gaussians(d, G, face_sorted(part), lossless, gb, jg["attributes"], jg["quantizationBits"]);
+    const int v = d.bin.add_view(genc.bytes.data(), genc.bytes.size());
+    d.sz.gaussians += genc.bytes.size();
+    Json tier = {{"count", plan.counts[t]}, {"bufferView", v}, {"crc32", d.bin.view_crc(v)}};
+    if (std::isfinite(plan.psnr[t])) tier["psnr"] = std::round(plan.psnr[t] * 100.0) / 100.0;
+    tiers.push_back(tier);
+  }
+  jg["tiers"] = tiers;
+  d.sz.lod_tiers = int(plan.counts.size());
 }
 
 // The pose-corrective blend shapes: float32 (lossless) or int16 with one scale per pose
@@ -662,6 +689,7 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   if (b.vt.empty() || b.ft.size() != size_t(b.num_faces) * 3) {
     fail("avatar", "body model has no UV map (vt/ft), which the texture needs");
   }
+  if (opt.lossless && opt.lod_tiers > 1) fail("--lod", "tiers reorder the Gaussians; --lossless keeps the trainer's order");
   if (opt.lossless && opt.texture_size > 0 && (opt.texture_size != a.texture.width || opt.texture_size != a.texture.height)) {
     fail("--texture-size", "--lossless keeps the trained texture (" + std::to_string(a.texture.width) + " x " +
                                std::to_string(a.texture.height) + "); a different size cannot be lossless");

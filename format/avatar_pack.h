@@ -76,6 +76,9 @@ struct PackOptions {
   // Vertex normals in the mesh. The material is unlit, so viewers do not need them (glTF
   // viewers compute flat normals where a lit material asks); off by default.
   bool normals = false;
+  // Levels of detail: the Gaussians in this many importance tiers, one point cloud each,
+  // prefixes N/2^(T-1), ..., N (format/gaussian_lod.h); 1 = one point cloud.
+  int lod_tiers = 1;
 };
 
 // Bytes per part of a packed file (what `haha info` and the storage report show).
@@ -95,6 +98,7 @@ struct PackedSizes {
   int skin_sets = 0;          // JOINTS_n/WEIGHTS_n sets shipped
   int max_influences = 0;     // largest number of nonzero weights of a vertex in the body
   bool edgebreaker = false;   // mesh encoded with edgebreaker (faces in the encoder's order)
+  int lod_tiers = 0;          // Gaussian tiers stored (0: one point cloud)
 };
 
 // Packs the avatar. Throws haha::Error ("avatar: <problem>") on invalid input (sizes,

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "format/avatar_validate.h"
 #include "format/draco_io.h"
+#include "format/gaussian_lod.h"
 #include "format/glb.h"
 #include "format/image_codec.h"
 
@@ -71,7 +72,7 @@ std::vector<std::string> string_list(const Json& root, const char* key, const st
 class AvatarReader {
  public:
   AvatarReader(const glb::Glb& g, const std::string& where, const UnpackOptions& opt, UnpackedAvatar& out)
-      : g_(g), root_(g.json), where_(where), rd_(g, where, opt), out_(out), info_(out.info), a_(out.avatar) {}
+      : g_(g), root_(g.json), where_(where), rd_(g, where, opt), opt_(opt), out_(out), info_(out.info), a_(out.avatar) {}
 
   void read() {
     header();
@@ -379,81 +380,80 @@ class AvatarReader {
                                         where_, E + ".depthTest.margin"));
   }
 
-  // The Draco point cloud of the Gaussians, decoded back to the trainer's parameters.
+  // The Gaussians: one Draco point cloud, or importance tiers (one each) of which a
+  // prefix is read (UnpackOptions::max_gaussians); decoded back to the trainer's parameters.
   void gaussians() {
     const Json& jg = member(*ext_, "gaussians", where_, E);
     const std::string G = E + ".gaussians";
     N_ = rd_.integer(jg, "count", G, 0, kMaxCount);
-    const int64_t N = N_;
     info_.scale_encoding = as_string(member(jg, "scaleEncoding", where_, G), where_, G + ".scaleEncoding");
     info_.rotation_encoding = as_string(member(jg, "rotationEncoding", where_, G), where_, G + ".rotationEncoding");
-    if (N == 0) {  // no point cloud: every Gaussian was filtered away
-      if (find_member(jg, "bufferView")) fail(where_, G + ": a bufferView for zero Gaussians");
-      return;
-    }
-    const glb::ByteSpan gbytes = rd_.view(jg, "bufferView", "crc32", G);
-    info_.sizes.gaussians = gbytes.size;
-    dracoio::Decoded gdec(gbytes.data, gbytes.size, false, where_, "gaussians", N);
-    if (gdec.num_points() != N) {
-      fail(where_, "gaussians: Draco stream has " + std::to_string(gdec.num_points()) + " points, the file says " + std::to_string(N));
-    }
-    const Json& gids = member(jg, "attributes", where_, G);
-    const std::string GA = G + ".attributes";
-    if (const Json* qb = find_member(jg, "quantizationBits")) {
-      if (qb->is_object())
-        for (auto& [k, v] : qb->items()) info_.gaussian_bits[k] = int(as_int(v, where_, G + ".quantizationBits." + k, 0, 30));
-    }
     if (info_.scale_encoding != "log" && info_.scale_encoding != "linear") {
       fail(where_, G + ".scaleEncoding: unknown '" + info_.scale_encoding + "'");
     }
-    BoundGaussians& bg = a_.gaussians;
-    const std::vector<int64_t> face = gdec.ints(draco_id(gids, "FACE", GA), 1, "FACE");
-    bg.face.resize(size_t(N));
-    for (int64_t i = 0; i < N; ++i) {
-      if (face[size_t(i)] < 0 || face[size_t(i)] >= F_) {
-        fail(where_, "gaussians: Gaussian " + std::to_string(i) + " refers to face " + std::to_string(face[size_t(i)]) +
-                         ", out of range [0, " + std::to_string(F_) + ")");
-      }
-      bg.face[size_t(i)] = int32_t(face[size_t(i)]);
-    }
-    if (edgebreaker_) face_corners(gdec, draco_id(gids, "FACE_CORNER", GA));
-    bg.offset = gdec.floats(draco_id(gids, "OFFSET", GA), 3, "OFFSET");
-    if (info_.rotation_encoding == "wxyz") {
-      bg.rotation = gdec.floats(draco_id(gids, "ROTATION", GA), 4, "ROTATION");
-    } else if (info_.rotation_encoding == "smallest3") {
-      const std::vector<float> r3 = gdec.floats(draco_id(gids, "ROTATION", GA), 3, "ROTATION");
-      const std::vector<int64_t> m = gdec.ints(draco_id(gids, "ROTATION_LARGEST", GA), 1, "ROTATION_LARGEST");
-      bg.rotation.resize(size_t(N) * 4);
-      for (int64_t i = 0; i < N; ++i) {
-        const int64_t l = m[size_t(i)];
-        if (l < 0 || l > 3) fail(where_, "gaussians: ROTATION_LARGEST " + std::to_string(l) + " out of range at Gaussian " + std::to_string(i));
-        float* q = &bg.rotation[size_t(i) * 4];
-        double s2 = 0;
-        for (int k = 0, o = 0; k < 4; ++k) {
-          if (k == l) continue;
-          q[k] = r3[size_t(i) * 3 + o++];
-          s2 += double(q[k]) * q[k];
-        }
-        q[l] = float(std::sqrt(std::max(0.0, 1.0 - s2)));
-      }
-    } else {
+    if (info_.rotation_encoding != "wxyz" && info_.rotation_encoding != "smallest3") {
       fail(where_, G + ".rotationEncoding: unknown '" + info_.rotation_encoding + "'");
     }
     if (const Json* o = find_member(jg, "order")) {
       info_.gaussian_order = as_string(*o, where_, G + ".order");
       if (info_.gaussian_order != "original" && info_.gaussian_order != "face") fail(where_, G + ".order: unknown '" + info_.gaussian_order + "'");
     }
-    bg.scale = gdec.floats(draco_id(gids, "SCALE", GA), 3, "SCALE");
-    bg.color = gdec.floats(draco_id(gids, "COLOR", GA), 3, "COLOR");
-    bg.opacity = gdec.floats(draco_id(gids, "OPACITY", GA), 1, "OPACITY");
+    if (const Json* qb = find_member(jg, "quantizationBits")) {
+      if (qb->is_object())
+        for (auto& [k, v] : qb->items()) info_.gaussian_bits[k] = int(as_int(v, where_, G + ".quantizationBits." + k, 0, 30));
+    }
+    const Json* tiers = find_member(jg, "tiers");
+    if (N_ == 0) {  // no point cloud: every Gaussian was filtered away
+      if (find_member(jg, "bufferView") || tiers) fail(where_, G + ": a point cloud for zero Gaussians");
+      return;
+    }
+    gids_ = &member(jg, "attributes", where_, G);
+    struct Stream {
+      glb::ByteSpan bytes;
+      int64_t count;
+    };
+    std::vector<Stream> streams;
+    if (!tiers) {
+      streams.push_back({rd_.view(jg, "bufferView", "crc32", G), N_});
+      info_.sizes.gaussians = streams[0].bytes.size;
+    } else {
+      if (info_.version < 2) fail(where_, G + ".tiers: not in version 1");
+      if (find_member(jg, "bufferView")) fail(where_, G + ": both a bufferView and tiers");
+      if (!tiers->is_array() || tiers->empty() || tiers->size() > size_t(kMaxLodTiers)) {
+        fail(where_, G + ".tiers: must be an array of 1 to " + std::to_string(kMaxLodTiers) + " tiers");
+      }
+      int64_t total = 0, taken = 0;
+      for (size_t t = 0; t < tiers->size(); ++t) {
+        const Json& tier = (*tiers)[t];
+        const std::string T = G + ".tiers[" + std::to_string(t) + "]";
+        const int64_t count = rd_.integer(tier, "count", T, 1, kMaxCount);
+        total += count;
+        info_.lod_counts.push_back(int(count));
+        info_.lod_psnr.push_back(find_member(tier, "psnr") ? as_number(member(tier, "psnr", where_, T), where_, T + ".psnr") : INFINITY);
+        const glb::ByteSpan bytes = glb::buffer_view(g_, int(rd_.integer(tier, "bufferView", T, 0, kMaxCount)), where_);
+        info_.sizes.gaussians += bytes.size;
+        // A prefix of whole tiers within the limit; the first tier always.
+        const bool take = opt_.max_gaussians <= 0 || taken == 0 || taken + count <= opt_.max_gaussians;
+        if (take && int64_t(streams.size()) == int64_t(t)) {
+          streams.push_back({rd_.view(tier, "bufferView", "crc32", T), count});
+          taken += count;
+        }
+      }
+      if (total != N_) fail(where_, G + ".tiers: hold " + std::to_string(total) + " Gaussians, the file says " + std::to_string(N_));
+    }
+    std::vector<int64_t> corners;
+    for (const Stream& st : streams) decode_gaussians(st.bytes, st.count, corners);
+    N_ = a_.gaussians.size();  // the Gaussians read (a prefix of tiers may be fewer)
+    if (edgebreaker_) face_corners(corners);
+    BoundGaussians& bg = a_.gaussians;
     if (info_.scale_encoding == "log") {
-      for (float& s : bg.scale) {
-        if (!std::isfinite(s)) fail(where_, "gaussians: non-finite log scale");
-        s = std::exp(s);
+      for (float& x : bg.scale) {
+        if (!std::isfinite(x)) fail(where_, "gaussians: non-finite log scale");
+        x = std::exp(x);
       }
     }
     if (info_.gaussian_bits["ROTATION"] > 0) {  // quantized: back to unit length
-      for (int64_t i = 0; i < N; ++i) {
+      for (int64_t i = 0; i < N_; ++i) {
         float* q = &bg.rotation[size_t(i) * 4];
         const double n = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2] + double(q[3]) * q[3]);
         if (!(n > 1e-6)) fail(where_, "gaussians: zero rotation at Gaussian " + std::to_string(i));
@@ -464,10 +464,57 @@ class AvatarReader {
       for (float& o : bg.opacity) o = std::isfinite(o) ? std::min(1.0f, std::max(0.0f, o)) : o;
   }
 
+  // Appends one point cloud of `count` Gaussians (scales still as stored) to the avatar's,
+  // and its FACE_CORNER values (edgebreaker meshes) to `corners`.
+  void decode_gaussians(const glb::ByteSpan& bytes, int64_t count, std::vector<int64_t>& corners) {
+    const std::string GA = E + ".gaussians.attributes";
+    const Json& gids = *gids_;
+    dracoio::Decoded gdec(bytes.data, bytes.size, false, where_, "gaussians", count);
+    if (gdec.num_points() != count) {
+      fail(where_, "gaussians: Draco stream has " + std::to_string(gdec.num_points()) + " points, the file says " + std::to_string(count));
+    }
+    BoundGaussians& bg = a_.gaussians;
+    const size_t first = bg.face.size();
+    for (int64_t f : gdec.ints(draco_id(gids, "FACE", GA), 1, "FACE")) {
+      if (f < 0 || f >= F_) {
+        fail(where_, "gaussians: Gaussian " + std::to_string(bg.face.size()) + " refers to face " + std::to_string(f) +
+                         ", out of range [0, " + std::to_string(F_) + ")");
+      }
+      bg.face.push_back(int32_t(f));
+    }
+    if (edgebreaker_) {
+      const std::vector<int64_t> c = gdec.ints(draco_id(gids, "FACE_CORNER", GA), 1, "FACE_CORNER");
+      corners.insert(corners.end(), c.begin(), c.end());
+    }
+    auto append = [](std::vector<float>& to, const std::vector<float>& from) { to.insert(to.end(), from.begin(), from.end()); };
+    append(bg.offset, gdec.floats(draco_id(gids, "OFFSET", GA), 3, "OFFSET"));
+    if (info_.rotation_encoding == "wxyz") {
+      append(bg.rotation, gdec.floats(draco_id(gids, "ROTATION", GA), 3 + 1, "ROTATION"));
+    } else {
+      const std::vector<float> r3 = gdec.floats(draco_id(gids, "ROTATION", GA), 3, "ROTATION");
+      const std::vector<int64_t> m = gdec.ints(draco_id(gids, "ROTATION_LARGEST", GA), 1, "ROTATION_LARGEST");
+      bg.rotation.resize((first + size_t(count)) * 4);
+      for (int64_t i = 0; i < count; ++i) {
+        const int64_t l = m[size_t(i)];
+        if (l < 0 || l > 3) fail(where_, "gaussians: ROTATION_LARGEST " + std::to_string(l) + " out of range at Gaussian " + std::to_string(first + size_t(i)));
+        float* q = &bg.rotation[(first + size_t(i)) * 4];
+        double s2 = 0;
+        for (int k = 0, o = 0; k < 4; ++k) {
+          if (k == l) continue;
+          q[k] = r3[size_t(i) * 3 + o++];
+          s2 += double(q[k]) * q[k];
+        }
+        q[l] = float(std::sqrt(std::max(0.0, 1.0 - s2)));
+      }
+    }
+    append(bg.scale, gdec.floats(draco_id(gids, "SCALE", GA), 3, "SCALE"));
+    append(bg.color, gdec.floats(draco_id(gids, "COLOR", GA), 3, "COLOR"));
+    append(bg.opacity, gdec.floats(draco_id(gids, "OPACITY", GA), 1, "OPACITY"));
+  }
+
   // Edgebreaker rotated the corners of the faces: turn each face that carries Gaussians
   // back so its corner 0 is the body's (face frames depend on the corner order).
-  void face_corners(const dracoio::Decoded& gdec, int id) {
-    const std::vector<int64_t> corner = gdec.ints(id, 1, "FACE_CORNER");
+  void face_corners(const std::vector<int64_t>& corner) {
     std::vector<int8_t> done(size_t(F_), -1);
     BodyModel& body = a_.body;
     for (int64_t i = 0; i < N_; ++i) {
@@ -555,6 +602,7 @@ class AvatarReader {
   const Json& root_;
   const std::string& where_;
   Reader rd_;
+  const UnpackOptions& opt_;
   UnpackedAvatar& out_;
   AvatarFileInfo& info_;
   Avatar& a_;
@@ -562,6 +610,7 @@ class AvatarReader {
   const Json* jb_ = nullptr;      // its "body"
   const Json* dattrs_ = nullptr;  // the body primitive's Draco attribute ids
   const Json* skin_ = nullptr;
+  const Json* gids_ = nullptr;    // the Gaussians' Draco attribute ids
   std::string P_;                 // JSON path of the body primitive
   std::unique_ptr<dracoio::Decoded> mesh_dec_;
   std::vector<int64_t> source_;   // body vertex of each glTF vertex

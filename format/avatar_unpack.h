@@ -25,6 +25,9 @@ struct UnpackOptions {
   // Check the CRC-32 of every Draco stream, image and array before decoding it. Off only
   // for fuzzing the decoders themselves.
   bool verify_checksums = true;
+  // Files with importance tiers (haha pack --lod): read only the tiers whose running
+  // count stays within this (the first tier always); 0 = every Gaussian.
+  int max_gaussians = 0;
 };
 
 // What `haha info` shows.
@@ -46,6 +49,8 @@ struct AvatarFileInfo {
                                                // body model's posedirs if not embedded)
   uint32_t topology_crc32 = 0;               // CRC-32 of the faces (int32, little-endian)
   bool splats = false;                       // KHR_gaussian_splatting primitive present
+  std::vector<int> lod_counts;               // Gaussians per importance tier (empty: no tiers)
+  std::vector<double> lod_psnr;              // PSNR of tiers 0..t vs all, as packed (inf: last)
   std::vector<std::string> extensions_used, extensions_required;
 };
 

@@ -150,8 +150,11 @@ void check_readable(const std::string& path) {
   std::fclose(f);
 }
 
-haha_avatar* make_avatar(const uint8_t* data, size_t size, const std::string& name, const char* body_model_path) {
-  haha::UnpackedAvatar u = classified(HAHA_ERROR_FORMAT, [&] { return haha::unpack_avatar(data, size, name); });
+haha_avatar* make_avatar(const uint8_t* data, size_t size, const std::string& name, const char* body_model_path,
+                         int32_t max_gaussians = 0) {
+  haha::UnpackOptions options;
+  options.max_gaussians = max_gaussians;
+  haha::UnpackedAvatar u = classified(HAHA_ERROR_FORMAT, [&] { return haha::unpack_avatar(data, size, name, options); });
   // As AvatarRuntime::load: the file says whether it was trained with correctives.
   const bool wanted = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
   haha::AvatarRuntime rt = classified(HAHA_ERROR_FORMAT, [&] { return haha::AvatarRuntime(std::move(u.avatar)); });
@@ -228,6 +231,16 @@ HAHA_API haha_status haha_avatar_load(const char* path, const char* body_model_p
     require(out_avatar != nullptr, "haha_avatar_load", "out_avatar is NULL");
     std::vector<uint8_t> bytes = read_file(path);
     *out_avatar = make_avatar(bytes.data(), bytes.size(), path, body_model_path);
+  });
+}
+
+HAHA_API haha_status haha_avatar_load_lod(const char* path, const char* body_model_path, int32_t max_gaussians,
+                                          haha_avatar** out_avatar) {
+  return guarded("haha_avatar_load_lod", HAHA_ERROR_FORMAT, [&] {
+    require(path != nullptr, "haha_avatar_load_lod", "path is NULL");
+    require(out_avatar != nullptr, "haha_avatar_load_lod", "out_avatar is NULL");
+    std::vector<uint8_t> bytes = read_file(path);
+    *out_avatar = make_avatar(bytes.data(), bytes.size(), path, body_model_path, max_gaussians);
   });
 }
 

@@ -151,6 +151,30 @@ TEST(FormatBadInput, Version2Parts) {
                "runs past its bufferView");
 }
 
+TEST(FormatBadInput, LodTiers) {
+  PackOptions o;
+  o.lod_tiers = 3;
+  const std::vector<uint8_t> lod = pack_avatar(fx().avatar, o);
+  ASSERT_EQ(unpack_avatar(lod.data(), lod.size(), kName).info.lod_counts.size(), 3u);
+  expect_error(edited(lod, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["tiers"][1]["count"] = 49; }),
+               "tiers: hold");
+  expect_error(edited(lod, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["bufferView"] = 0; }),
+               "both a bufferView and tiers");
+  expect_error(edited(lod, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["tiers"] = Json::array(); }),
+               "tiers: must be an array");
+  expect_error(edited(lod, [](Json& j, auto&) {
+                 auto& g = j["extensions"]["HAHA_gaussian_avatar"]["gaussians"];
+                 std::swap(g["tiers"][0]["count"], g["tiers"][2]["count"]);  // same total, wrong per stream
+               }),
+               "points, the file says");
+  // Whole tiers in another order are still a valid file.
+  const std::vector<uint8_t> swapped = edited(lod, [](Json& j, auto&) {
+    auto& g = j["extensions"]["HAHA_gaussian_avatar"]["gaussians"];
+    std::swap(g["tiers"][0], g["tiers"][2]);
+  });
+  EXPECT_EQ(unpack_avatar(swapped.data(), swapped.size(), kName).avatar.gaussians.size(), 200);
+}
+
 TEST(FormatBadInput, MissingExtensionOrUnsupportedRequirement) {
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"].erase("HAHA_gaussian_avatar"); }), "not a HAHA avatar");
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensionsRequired"].push_back("KHR_unknown_thing"); }),

@@ -13,6 +13,7 @@
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
 #include "format/draco_io.h"
+#include "format/gaussian_lod.h"
 #include "format/glb.h"
 #include "support/format_test_avatar.h"
 
@@ -289,6 +290,55 @@ TEST(FormatRoundTrip, Version1FileStillLoads) {
   EXPECT_EQ(u1.avatar.body.faces, u2.avatar.body.faces);
   EXPECT_TRUE(bit_equal(u1.avatar.body.j_regressor, a.body.j_regressor));
   EXPECT_TRUE(bit_equal(u1.avatar.gaussians.offset, u2.avatar.gaussians.offset));
+}
+
+// Importance tiers (--lod): each prefix holds the most important Gaussians, its measured
+// PSNR grows with the prefix, a loader can stop after any tier, and all tiers together
+// hold every Gaussian.
+TEST(FormatRoundTrip, LodTiersArePrefixesALoaderCanTake) {
+  const Avatar a = test::without_degenerate_face(test::make_test_avatar(700));
+  const LodPlan plan = plan_lod(a, 3);
+  ASSERT_EQ(plan.counts, (std::vector<int>{175, 175, 350}));
+  ASSERT_EQ(plan.psnr.size(), 3u);
+  EXPECT_LT(plan.psnr[0], plan.psnr[1]);
+  EXPECT_TRUE(std::isinf(plan.psnr[2]));
+  // Ranked by opacity x footprint: nothing in a later tier outranks the first tier.
+  std::vector<int32_t> sorted = plan.order;
+  std::sort(sorted.begin(), sorted.end());
+  for (int i = 0; i < 700; ++i) ASSERT_EQ(sorted[size_t(i)], i);
+  PackOptions opt;
+  opt.lod_tiers = 3;
+  const std::vector<uint8_t> glb = pack_avatar(a, opt);
+  const UnpackedAvatar all = unpack_avatar(glb.data(), glb.size(), "lod.glb");
+  EXPECT_EQ(all.avatar.gaussians.size(), 700);
+  EXPECT_EQ(all.info.lod_counts, plan.counts);
+  for (size_t t = 0; t < 2; ++t) EXPECT_NEAR(all.info.lod_psnr[t], plan.psnr[t], 0.01);
+  // The multiset of faces is the avatar's (order within tiers is by face).
+  std::vector<int32_t> fa, fb;
+  for (int32_t f : a.gaussians.face) fa.push_back(f);
+  for (int32_t f : all.avatar.gaussians.face) fb.push_back(f);
+  EXPECT_EQ(fa.size(), fb.size());
+  // A prefix: the tiers that fit, the first always.
+  for (auto [limit, want] : {std::pair{1, 175}, std::pair{175, 175}, std::pair{349, 175}, std::pair{350, 350}, std::pair{699, 350}, std::pair{0, 700}}) {
+    UnpackOptions o;
+    o.max_gaussians = limit;
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "lod.glb", o);
+    EXPECT_EQ(u.avatar.gaussians.size(), want) << "limit " << limit;
+    EXPECT_EQ(u.info.sizes.num_gaussians, want);
+  }
+  // The first tier's Gaussians are the plan's first 175 (compare opacities as a multiset,
+  // within the 5-bit quantization step).
+  UnpackOptions first;
+  first.max_gaussians = 1;
+  const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "lod.glb", first);
+  std::vector<float> want_op, got_op(u.avatar.gaussians.opacity);
+  for (int i = 0; i < 175; ++i) want_op.push_back(a.gaussians.opacity[size_t(plan.order[size_t(i)])]);
+  std::sort(want_op.begin(), want_op.end());
+  std::sort(got_op.begin(), got_op.end());
+  for (size_t i = 0; i < want_op.size(); ++i) ASSERT_NEAR(want_op[i], got_op[i], 1.0f / 31 * 0.51f + 1e-6f) << i;
+  PackOptions bad = opt;
+  bad.lossless = true;
+  EXPECT_THROW(pack_avatar(a, bad), Error);
 }
 
 TEST(FormatRoundTrip, TextureOptions) {

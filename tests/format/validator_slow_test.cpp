@@ -103,6 +103,12 @@ TEST_F(FormatValidator, EveryPackVariantHasZeroErrors) {
   webp.texture_codec = TextureCodec::webp;
   webp.texture_size = 32;
   expect_no_errors(write("webp.glb", a, webp), F);
+  // Version 2: an edgebreaker mesh (the test body without its degenerate face) with
+  // importance tiers and normals.
+  PackOptions eb;
+  eb.lod_tiers = 3;
+  eb.normals = true;
+  expect_no_errors(write("edgebreaker_lod.glb", test::without_degenerate_face(a), eb), F - 1);
 }
 
 TEST_F(FormatValidator, RealisticAvatarHasZeroErrors) {
@@ -140,6 +146,9 @@ TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
   o.khr_gaussian_splatting = true;
   const fs::path p = write("schema.glb", test::make_test_avatar(50), o);
   const fs::path q = write("schema_default.glb", test::make_test_avatar(50), PackOptions{});
+  PackOptions lod;
+  lod.lod_tiers = 2;
+  const fs::path r = write("schema_lod.glb", test::without_degenerate_face(test::make_test_avatar(50)), lod);
   const fs::path script = dir_ / "check.py";
   std::ofstream(script) << "import json, struct, sys, jsonschema\n"
                            "schema = json.load(open(sys.argv[1]))\n"
@@ -148,7 +157,7 @@ TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
                            "    n = struct.unpack('<I', b[12:16])[0]\n"
                            "    jsonschema.validate(json.loads(b[20:20 + n])['extensions']['HAHA_gaussian_avatar'], schema)\n";
   const std::string cmd = "python3 " + quote(script) + " " + quote(kRepo / "format/haha_avatar.schema.json") + " " +
-                          quote(p) + " " + quote(q);
+                          quote(p) + " " + quote(q) + " " + quote(r);
   EXPECT_EQ(std::system(cmd.c_str()), 0);
 }
 

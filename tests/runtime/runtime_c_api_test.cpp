@@ -275,6 +275,28 @@ TEST(RuntimeCApi, LoadsFromFileAndMemoryWithTheAvatarsCounts) {
   expect_failure(haha_avatar_faces(file.p, nullptr, 100000), HAHA_ERROR_ARGUMENT, {"indices is NULL"});
 }
 
+// haha_avatar_load_lod: a file with importance tiers loads the tiers that fit; a file
+// without tiers loads whole.
+TEST(RuntimeCApi, LoadsAPrefixOfImportanceTiers) {
+  PackOptions o;
+  o.lod_tiers = 3;  // 300 Gaussians: tiers of 75, 75, 150
+  const fs::path path = tmp_dir() / "lod.glb";
+  write_bytes(path, pack_avatar(fx().avatar, o));
+  for (auto [limit, want] : {std::pair{0, 300}, std::pair{1, 75}, std::pair{150, 150}, std::pair{299, 150}, std::pair{300, 300}}) {
+    AvatarHandle h;
+    ASSERT_EQ(haha_avatar_load_lod(path.c_str(), nullptr, limit, &h.p), HAHA_OK) << haha_last_error();
+    haha_avatar_info info{};
+    ASSERT_EQ(haha_avatar_get_info(h.p, &info), HAHA_OK);
+    EXPECT_EQ(info.num_gaussians, want) << "limit " << limit;
+  }
+  AvatarHandle whole;
+  ASSERT_EQ(haha_avatar_load_lod(fx().lossy_path.c_str(), nullptr, 10, &whole.p), HAHA_OK) << haha_last_error();
+  haha_avatar_info info{};
+  ASSERT_EQ(haha_avatar_get_info(whole.p, &info), HAHA_OK);
+  EXPECT_EQ(info.num_gaussians, 300);
+  expect_failure(haha_avatar_load_lod(nullptr, nullptr, 0, &whole.p), HAHA_ERROR_ARGUMENT, {"haha_avatar_load_lod", "NULL"});
+}
+
 TEST(RuntimeCApi, BodyModelSuppliesMissingPoseCorrectives) {
   // Packed without correctives, trained with them: flagged missing until the model is given.
   AvatarHandle bare;

@@ -130,6 +130,13 @@ HAHA_API haha_status haha_avatar_load(const char* path, const char* body_model_p
 HAHA_API haha_status haha_avatar_load_memory(const void* data, size_t size, const char* name,
                                              const char* body_model_path, haha_avatar** out_avatar);
 
+/* As haha_avatar_load, for a file packed with importance tiers (haha pack --lod): loads
+ * only the tiers whose running Gaussian count stays within max_gaussians (the first tier
+ * always), e.g. for a distant avatar. max_gaussians <= 0, or a file without tiers: every
+ * Gaussian. */
+HAHA_API haha_status haha_avatar_load_lod(const char* path, const char* body_model_path, int32_t max_gaussians,
+                                          haha_avatar** out_avatar);
+
 /* Frees an avatar (NULL: no-op). Free its haha_posed objects first. */
 HAHA_API void haha_avatar_free(haha_avatar* avatar);
 

@@ -177,7 +177,9 @@ export class Avatar {
     const ga = jg.attributes;
     const gbits = jg.quantizationBits || {};
     if (N > 0) {
-      const gbytes = glb.checkedView(jg.bufferView, jg.crc32, 'gaussians');
+      // One point cloud, or importance tiers (haha pack --lod): the viewer reads them all.
+      const streams = jg.tiers ? jg.tiers.map((t, i) => glb.checkedView(t.bufferView, t.crc32, `gaussians tier ${i}`))
+                               : [glb.checkedView(jg.bufferView, jg.crc32, 'gaussians')];
       const smallest3 = jg.rotationEncoding === 'smallest3';
       if (!smallest3 && jg.rotationEncoding !== 'wxyz') fail(`gaussians: unknown rotationEncoding ${jg.rotationEncoding}`);
       const gids = { FACE: ga.FACE, OFFSET: ga.OFFSET, ROTATION: ga.ROTATION, SCALE: ga.SCALE, COLOR: ga.COLOR, OPACITY: ga.OPACITY };
@@ -185,7 +187,15 @@ export class Avatar {
       if (smallest3) { gids.ROTATION_LARGEST = ga.ROTATION_LARGEST; gtypes.ROTATION_LARGEST = 'Int32Array'; }
       const edgebreaker = jb.draco.method === 'edgebreaker';
       if (edgebreaker) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
-      const g = await decode(gbytes, gids, gtypes);
+      const parts = [];
+      for (const bytes of streams) parts.push(await decode(bytes, gids, gtypes));
+      const g = {};
+      for (const key of Object.keys(gtypes)) {
+        const total = parts.reduce((n, p) => n + p[key].length, 0);
+        g[key] = new (parts[0][key].constructor)(total);
+        let at = 0;
+        for (const p of parts) { g[key].set(p[key], at); at += p[key].length; }
+      }
       if (g.FACE.length !== N) fail(`gaussians: Draco stream has ${g.FACE.length} points, the file says ${N}`);
       for (let i = 0; i < N; i++) if (g.FACE[i] < 0 || g.FACE[i] >= F) fail(`gaussians: Gaussian ${i} refers to face ${g.FACE[i]}`);
       if (edgebreaker) {  // turn each Gaussian-carrying face so its corner 0 is the body's
