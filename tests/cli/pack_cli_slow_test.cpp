@@ -87,6 +87,23 @@ TEST(FormatCli, PackInfoUnpackRepackRender) {
   }
   EXPECT_EQ(slurp(err).find("warning"), std::string::npos) << slurp(err);  // correctives came from --model
 
+  // Importance tiers: info lists them; --max-gaussians renders from the first tier only.
+  ASSERT_EQ(run("pack '" + (dir / "run").string() + "' --lod 2 --out '" + (dir / "lod.glb").string() + "'", out, err), 0) << slurp(err);
+  ASSERT_EQ(run("info '" + (dir / "lod.glb").string() + "' --json", out, err), 0) << slurp(err);
+  const nlohmann::json lod = nlohmann::json::parse(slurp(out));
+  ASSERT_EQ(lod["tiers"].size(), 2u);
+  EXPECT_EQ(lod["tiers"][0]["count"].get<int>(), 1000);
+  EXPECT_GT(lod["tiers"][0]["psnr"].get<double>(), 10.0);
+  for (const char* limit : {"1000", "0"}) {
+    ASSERT_EQ(run("render '" + (dir / "lod.glb").string() + "' --motion '" + (dir / "motion.npz").string() + "' --out '" +
+                      (dir / ("lod_" + std::string(limit))).string() + "' --size 64 --max-gaussians " + limit + " --model '" +
+                      (dir / "run/body.npz").string() + "'",
+                  out, err),
+              0)
+        << slurp(err);
+  }
+  EXPECT_NE(slurp(dir / "lod_1000/frame_00000.png"), slurp(dir / "lod_0/frame_00000.png"));  // half the Gaussians
+
   // A corrupt file: exit code 1 and one line naming the file.
   {
     std::string bytes = slurp(dir / "a.glb");
