@@ -19,7 +19,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   return 0;
 }
 
-// A two-triangle mesh (positions quantized, UVs raw, an integer attribute) and a point
+// A two-triangle mesh (positions quantized, UVs raw, an integer attribute; sequential and
+// edgebreaker) and a point
 // cloud (quantized floats, an unpredicted attribute), written by the format's encoder.
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   using namespace haha::dracoio;
@@ -31,6 +32,7 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   AttrIn t{"TEXCOORD_0", Kind::texcoord, Type::f32, 2, uv.data(), 0};
   AttrIn i{"BODY_VERTEX", Kind::generic, Type::i32, 1, ids.data(), 0};
   haha::fuzz::write_seed(dir, "mesh.drc", encode(4, {p, t, i}, faces.data(), 2).bytes);
+  haha::fuzz::write_seed(dir, "mesh_edgebreaker.drc", encode(4, {p, t, i}, faces.data(), 2, Method::edgebreaker).bytes);
   const std::vector<float> colour = {0.1f, 0.2f, 0.3f, 0.9f, 0.8f, 0.7f, 0.5f, 0.5f, 0.5f, 0.0f, 1.0f, 0.25f};
   AttrIn c{"COLOR", Kind::generic, Type::f32, 3, colour.data(), 8};
   AttrIn f{"FACE", Kind::generic, Type::i32, 1, ids.data(), 0, false};
