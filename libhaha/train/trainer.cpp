@@ -92,5 +92,8 @@ std::array<double, 3> Trainer::stage_seconds() const { return p_->seconds; }
 int64_t Trainer::skipped_steps() const { return p_->skipped; }
 bool Trainer::lpips_active() const { return p_->lpips != nullptr; }
 void Trainer::set_gradient_hook(std::function<void(int, std::vector<float>&)> hook) { p_->hook = std::move(hook); }
+void Trainer::set_pose_gradient_hook(std::function<void(const std::string&, const std::vector<float>&)> hook) {
+  p_->pose_hook = std::move(hook);
+}
 
 }  // namespace haha

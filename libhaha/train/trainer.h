@@ -116,6 +116,10 @@ class Trainer {
   // Test hook: called before each optimiser update with the stage and its first gradient
   // buffer (offsets / texture / opacity logits), which it may alter.
   void set_gradient_hook(std::function<void(int stage, std::vector<float>& grad)> hook);
+  // Test hook: called in stage 1 with pose refinement with each pose-refinement gradient
+  // as the optimiser receives it, by its group name ("betas", "frame<i>.body",
+  // "frame<i>.fine" for the frames the batch drew).
+  void set_pose_gradient_hook(std::function<void(const std::string& group, const std::vector<float>& grad)> hook);
 
  private:
   struct Impl;

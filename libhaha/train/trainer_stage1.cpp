@@ -35,8 +35,9 @@ const float* Trainer::Impl::knn_term(const LossWeights& w, bool need_knn, LossTe
 }
 
 // Pose refinement: the frame's SMPL-X gradient from the posed-vertex gradient, added to its
-// body / fine groups (and the shared betas).
-void Trainer::Impl::accumulate_pose_grad(int fi, float inv_b) {
+// body / fine groups (and the shared betas). d_verts already holds the batch mean's 1/B
+// (the image gradient was scaled by it), so nothing is divided here.
+void Trainer::Impl::accumulate_pose_grad(int fi) {
   const SmplxParams fp = frame_params(fi);
   SmplxGrad<float> sg = lbs.make_grad(fp);
   lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
@@ -48,11 +49,11 @@ void Trainer::Impl::accumulate_pose_grad(int fi, float inv_b) {
     frame_touched[size_t(fi)] = 1;
   }
   pose_to_groups(sg, db.data(), dfn.data(), /*accumulate=*/true);
-  for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q] * inv_b;
+  for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q];
 }
 
-// Adam on the Gaussians, and on the refined poses and betas (batch means).
-void Trainer::Impl::update_stage1(float inv_b) {
+// Adam on the Gaussians, and on the refined poses and betas (gradients of the batch mean).
+void Trainer::Impl::update_stage1() {
   const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
   adam.set_lr(adam.group("offset"), sched(step));
   adam.step(adam.group("offset"), g.offset.data(), d_offset.data());
@@ -60,15 +61,17 @@ void Trainer::Impl::update_stage1(float inv_b) {
   adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
   adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
   if (cfg.s1.refine_pose) {
+    if (pose_hook) pose_hook("betas", d_betas);  // exactly what Adam receives
     adam.step(adam.group("betas"), betas.data(), d_betas.data());
     for (int i = 0; i < nf; ++i) {
-      if (!frame_touched[size_t(i)]) continue;
-      // Mean over the batch: a frame drawn twice in one batch counts twice.
-      for (float& x : d_frame_body[size_t(i)]) x *= inv_b;
-      for (float& x : d_frame_fine[size_t(i)]) x *= inv_b;
+      if (!frame_touched[size_t(i)]) continue;  // a frame drawn twice in one batch counts twice
       std::vector<float> body_vals(kPoseBodyGroup), fine_vals(kPoseFineGroup);
       SmplxParams& p = params[size_t(i)];
       pose_to_groups(p, body_vals.data(), fine_vals.data());
+      if (pose_hook) {
+        pose_hook("frame" + std::to_string(i) + ".body", d_frame_body[size_t(i)]);
+        pose_hook("frame" + std::to_string(i) + ".fine", d_frame_fine[size_t(i)]);
+      }
       adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
       adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
       groups_to_pose(body_vals.data(), fine_vals.data(), p);
@@ -130,7 +133,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
     for (int i = 0; i < n; ++i)
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
-    if (cfg.s1.refine_pose) accumulate_pose_grad(fi, inv_b);
+    if (cfg.s1.refine_pose) accumulate_pose_grad(fi);
   }
   if (!rot_unit.empty() && !d_rot_unit.empty() && w.knn > 0 && n > 1)
     for (int i = 0; i < n; ++i) {
@@ -151,7 +154,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     if (frame_touched[size_t(i)]) ok = finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)]);
   if (!ok) return false;
 
-  update_stage1(inv_b);
+  update_stage1();
   // Densification, after the update (3DGS order), on the completed-step count.
   const int done_steps = step + 1;
   const Stage1Config& s1 = cfg.s1;
