@@ -107,6 +107,9 @@ class Trainer {
   Avatar stage1_avatar() const;
   bool has_stage1() const;
   std::vector<SmplxParams> refined_params() const;  // per training frame, with the shared betas
+  // Stage 1: per Gaussian, the densification statistic since the last densification (mean
+  // over the views that saw it of |dL/d(screen centre)| in NDC units; 0 where unseen).
+  std::vector<float> densify_statistic() const;
   std::array<double, 3> stage_seconds() const;      // wall time spent in each stage
   int64_t skipped_steps() const;
   // Whether the LPIPS-VGG loss term is in use (weights given, with a VGG part, and images

@@ -130,6 +130,10 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     gr.scale = d_scale.data();
     gr.color = d_color.data();
     gr.means2d_norm_accum = grad_accum.data();
+    // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size,
+    // each axis its own.
+    gr.means2d_norm_scale[0] = 0.5f * float(W);
+    gr.means2d_norm_scale[1] = 0.5f * float(H);
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
     for (int i = 0; i < n; ++i)
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
@@ -166,12 +170,8 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
 
 void Trainer::Impl::densify(std::string& event) {
   const Stage1Config& s1 = cfg.s1;
-  // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size.
-  std::vector<float> ndc(grad_accum.size());
-  const float to_ndc = 0.5f * float(std::max(W, H));
-  for (size_t i = 0; i < ndc.size(); ++i) ndc[i] = grad_accum[i] * to_ndc;
-  const DensifyPlan plan =
-      plan_densify(g, float(cfg.scale_max), ndc, grad_count, s1.densify_grad, s1.densify_clone_scale, s1.max_gaussians);
+  const DensifyPlan plan = plan_densify(g, float(cfg.scale_max), grad_accum, grad_count, s1.densify_grad,
+                                       s1.densify_clone_scale, s1.max_gaussians);
   const int before = g.size();
   const DensifyResult r = apply_densify(g, plan, float(cfg.scale_max), s1.densify_split_std, s1.densify_split_div,
                                         hash64(cfg.seed, stream(1, kSplit), uint64_t(step)));
@@ -179,8 +179,8 @@ void Trainer::Impl::densify(std::string& event) {
   knn_idx.clear();
   // Distribution of the statistic (visible Gaussians), to judge the threshold.
   std::vector<float> seen;
-  for (size_t i = 0; i < ndc.size(); ++i)
-    if (grad_count[i] > 0) seen.push_back(ndc[i] / grad_count[i]);
+  for (size_t i = 0; i < grad_accum.size(); ++i)
+    if (grad_count[i] > 0) seen.push_back(grad_accum[i] / grad_count[i]);
   std::sort(seen.begin(), seen.end());
   auto pct = [&](double q) { return seen.empty() ? 0.0 : double(seen[size_t(q * double(seen.size() - 1))]); };
   char buf[192];
