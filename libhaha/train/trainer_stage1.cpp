@@ -131,9 +131,10 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     gr.color = d_color.data();
     gr.means2d_norm_accum = grad_accum.data();
     // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size,
-    // each axis its own.
-    gr.means2d_norm_scale[0] = 0.5f * float(W);
-    gr.means2d_norm_scale[1] = 0.5f * float(H);
+    // each axis its own; times B, since d_image carries the batch mean's 1/B and the
+    // statistic is a per-view gradient (the same frame gives the same value at any batch).
+    gr.means2d_norm_scale[0] = 0.5f * float(W) * float(B);
+    gr.means2d_norm_scale[1] = 0.5f * float(H) * float(B);
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
     for (int i = 0; i < n; ++i)
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
@@ -146,7 +147,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
       for (int c = 0; c < 4; ++c) d_rotation[4 * size_t(i) + c] += dr[c];
     }
   // The batch mean of the image terms is in d_image's scale; the KNN gradient was added
-  // once; the densification statistic stays a per-view sum (3DGS).
+  // once; the densification statistic is a sum of per-view gradients (3DGS).
   d_scale_logit.resize(3 * size_t(n));
   d_color_logit.resize(3 * size_t(n));
   activation_backward(act, float(cfg.scale_max), n, d_scale.data(), d_color.data(), nullptr, d_scale_logit.data(),

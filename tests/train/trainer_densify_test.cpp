@@ -86,5 +86,25 @@ TEST(TrainerDensify, StatisticIsInEachAxisOwnNdcUnits) {
   EXPECT_GT(differs, n / 10);  // the check can tell the two apart
 }
 
+TEST(TrainerDensify, StatisticIsTheSameAtAnyBatchSize) {
+  // One frame: alone at batch 1, four copies at batch 4 (each drawn once); all loss terms
+  // of the preset. The statistic is a per-view gradient, so the two agree.
+  const TrainFrame f = scene_frames(scene_truth(), 6, 40)[1];
+  std::vector<float> stat[2];
+  for (int k = 0; k < 2; ++k) {
+    TrainConfig c = one_step_config();
+    c.batch = k == 0 ? 1 : 4;
+    Trainer t(c, scene_input(std::vector<TrainFrame>(size_t(c.batch), f)));
+    t.step();
+    stat[k] = t.densify_statistic();
+  }
+  ASSERT_EQ(stat[0].size(), stat[1].size());
+  float smax = 0;
+  int seen = 0;
+  for (float s : stat[0]) smax = std::max(smax, s), seen += s > 0;
+  ASSERT_GT(seen, int(stat[0].size()) / 4);
+  for (size_t i = 0; i < stat[0].size(); ++i) EXPECT_NEAR(stat[1][i], stat[0][i], 1e-5f * smax) << "Gaussian " << i;
+}
+
 }  // namespace
 }  // namespace haha
