@@ -86,7 +86,7 @@ struct Stage3Config {
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
-  double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres)
+  double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)
 };
 
 struct TrainConfig {
