@@ -96,7 +96,7 @@ struct TrainConfig {
   int batch = 4;                 // frames per step (gradients averaged)
   double face_scale_divisor = 0.05;
   double scale_max = 0.1;        // scale activation: s = scale_max * sigmoid(logit)
-  std::string premultiplied = "auto";  // images already composited on black: auto|true|false
+  std::string premultiplied = "auto";  // images already composited on black: auto (dataset.json's flag)|true|false
   int checkpoint_every = 500;    // steps (plus every stage end)
   int log_every = 50;            // progress lines
   bool random_background = true; // stages 1 and 3
