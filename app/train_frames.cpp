@@ -11,7 +11,8 @@ namespace haha {
 bool dataset_premultiplied(const Dataset& ds, const std::string& setting) {
   if (setting == "true") return true;
   if (setting == "false") return false;
-  return ds.source.rfind("haha synth", 0) == 0;
+  if (ds.premultiplied >= 0) return ds.premultiplied == 1;  // dataset.json says
+  return ds.source.rfind("haha synth", 0) == 0;  // files from before the flag: as they were read then
 }
 
 std::vector<TrainFrame> dataset_frames(Dataset& ds, Split split, int resolution) {

@@ -11,7 +11,8 @@
 namespace haha {
 
 // Whether the dataset's images are already composited on black with soft masks: "true" /
-// "false", or "auto" = datasets written by `haha synth` (their source says so).
+// "false", or "auto" = dataset.json's "premultiplied" flag; files without it (written
+// before the flag) count as premultiplied when `haha synth` wrote them (their source says so).
 bool dataset_premultiplied(const Dataset& ds, const std::string& setting);
 
 // The frames of one split as training frames, resized so the longer side is `resolution`

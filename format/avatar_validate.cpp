@@ -112,7 +112,7 @@ void validate_subject(const Avatar& a, const std::string& where) {
   if (!(std::isfinite(a.face_scale_divisor) && a.face_scale_divisor > 0)) {
     fail(where, "face_scale_divisor: must be a positive finite number");
   }
-  if (!(std::isfinite(a.depth_margin) && std::abs(a.depth_margin) <= 1.0f)) {
+  if (!(std::isfinite(a.depth_margin) && std::abs(a.depth_margin) <= kMaxDepthMargin)) {
     fail(where, "depth_margin: must be a finite number of metres in [-1, 1]");
   }
 }

@@ -43,4 +43,8 @@ struct Avatar {
   float depth_margin = 0.0f;
 };
 
+// The largest |depth_margin| an avatar may carry (metres): the format's range, which the
+// trainer's config checks before training rather than after.
+inline constexpr float kMaxDepthMargin = 1.0f;
+
 }  // namespace haha

@@ -208,8 +208,8 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
   if (!root.is_object()) fail(json_path, "expected a JSON object at the top level");
   for (const auto& [k, v] : root.items()) {
     (void)v;
-    static const char* known[] = {"format", "version", "width", "height", "fps", "gender", "source",
-                                  "camera", "smplx", "smplx_true", "frames"};
+    static const char* known[] = {"format", "version", "width", "height", "fps",        "gender",
+                                  "source", "premultiplied", "camera", "smplx", "smplx_true", "frames"};
     bool ok = false;
     for (const char* kk : known) ok = ok || k == kk;
     if (!ok) fail(where(k), "unknown key");
@@ -247,6 +247,10 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
   if (root.contains("source")) {
     if (!root["source"].is_string()) fail(where("source"), "expected a string");
     ds.source = root["source"].get<std::string>();
+  }
+  if (root.contains("premultiplied")) {
+    if (!root["premultiplied"].is_boolean()) fail(where("premultiplied"), "expected true or false");
+    ds.premultiplied = root["premultiplied"].get<bool>() ? 1 : 0;
   }
   bool have_static = false;
   Camera static_cam;
@@ -338,6 +342,7 @@ struct DatasetWriter::State {
   std::vector<Camera> cameras;
   std::vector<SmplxParams> params, truth;
   int with_truth = 0;
+  int premultiplied = -1;
   bool finished = false;
 };
 
@@ -367,6 +372,11 @@ DatasetWriter::DatasetWriter(std::string dir, int width, int height, double fps,
   ensure_directory((s_->tmp / "images").string());
   ensure_directory((s_->tmp / "masks").string());
   ensure_directory((s_->tmp / "smplx").string());
+}
+
+void DatasetWriter::set_premultiplied(int flag) {
+  if (flag < -1 || flag > 1) fail(s_->dir.string(), "premultiplied flag must be -1, 0 or 1");
+  s_->premultiplied = flag;
 }
 
 DatasetWriter::~DatasetWriter() {
@@ -448,6 +458,7 @@ void DatasetWriter::finish() {
   root["fps"] = s.fps;
   root["gender"] = s.gender;
   root["source"] = s.source;
+  if (s.premultiplied >= 0) root["premultiplied"] = s.premultiplied == 1;
   if (is_static) root["camera"] = camera_object(s.cameras.front());
   root["smplx"] = "smplx/params.npz";
   if (s.with_truth) root["smplx_true"] = "smplx/params_true.npz";
@@ -502,6 +513,7 @@ void DatasetWriter::finish() {
 
 void write_dataset(const Dataset& ds, const std::string& dir) {
   DatasetWriter w(dir, ds.width, ds.height, ds.fps, ds.gender, ds.source);
+  w.set_premultiplied(ds.premultiplied);
   if (!ds.params_true.empty() && ds.params_true.size() != ds.frames.size())
     fail(dir, std::to_string(ds.params_true.size()) + " true parameter sets for " + std::to_string(ds.frames.size()) +
                   " frames");

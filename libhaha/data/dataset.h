@@ -16,6 +16,8 @@
 //   {"format": "haha-dataset", "version": 1,
 //    "width": W, "height": H, "fps": 30, "gender": "neutral" | "male" | "female",
 //    "source": "free text: what this was made or converted from",
+//    "premultiplied": true | false,   (optional) images composited on black with the soft
+//                     mask (rgb = mask x colour); absent: not known (older files)
 //    "camera": {"K": [[fx,0,cx],[0,fy,cy],[0,0,1]], "world_to_camera": 4x4, "near": n, "far": f},
 //    "smplx": "smplx/params.npz", "smplx_true": "smplx/params_true.npz",   (the latter optional)
 //    "frames": [{"image": "images/000000.png", "mask": "masks/000000.png",
@@ -65,6 +67,8 @@ struct Dataset {
   double fps = 30;
   std::string gender = "neutral";
   std::string source;
+  // "premultiplied" of dataset.json: -1 not given, 0 false, 1 true.
+  int premultiplied = -1;
   std::vector<DatasetFrame> frames;
   std::vector<SmplxParams> params_true;  // empty, or one per frame
 
@@ -103,6 +107,8 @@ class DatasetWriter {
   // parameters finite. `truth` (optional) is the frame's true SMPL-X parameters: give it
   // for all frames or for none.
   void add(const DatasetFrame& frame, const Image& rgb, const Image& mask, const SmplxParams* truth = nullptr);
+  // "premultiplied" of dataset.json (Dataset::premultiplied); -1 (the default) writes nothing.
+  void set_premultiplied(int flag);
   // Writes the npz files and dataset.json and moves the directory into place.
   void finish();
   int num_frames() const;

@@ -61,6 +61,7 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
   ds.height = tr.out_h;
   ds.fps = opt.fps;
   ds.gender = opt.gender.empty() ? "neutral" : opt.gender;
+  ds.premultiplied = 0;  // camera frames with their own background
   ds.source = "PeopleSnapshot (InstantAvatar preprocessing): " + opt.dir + " train " + opt.train.str() + " test " +
               opt.test.str();
   const Camera cam = tr.apply(src_cam);

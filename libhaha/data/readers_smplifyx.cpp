@@ -111,6 +111,7 @@ Dataset read_smplifyx(const SmplifyxOptions& opt) {
   ds.path = opt.dir;
   ds.fps = opt.fps;
   ds.gender = opt.gender.empty() ? "neutral" : opt.gender;
+  ds.premultiplied = 0;  // camera frames with their own background
   ds.source = "SMPLify-X fits: " + opt.dir + " train " + opt.train.str() + " test " + opt.test.str();
   std::vector<std::pair<std::string, std::string>> files;
   PixelTransform tr;

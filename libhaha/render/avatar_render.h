@@ -83,6 +83,7 @@ struct AvatarRenderGrads {
   float* opacity = nullptr;   // (N) activated
   float* texture = nullptr;   // (Ht, Wt, 3), when the mesh is rendered from a texture
   float* means2d_norm_accum = nullptr;  // (N) densification statistic (rasterizer's +=)
+  float means2d_norm_scale[2] = {1, 1};  // its per-axis factors (GaussianGrads::means2d_norm_scale_x/y)
 };
 
 // Host views of a trained avatar (body topology, Gaussians, texture) for requests; keep it

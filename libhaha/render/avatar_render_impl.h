@@ -207,6 +207,8 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
     gg.opacities = buf.d_opacity.data();
     gg.colors = buf.d_color.data();
     gg.means2d_norm_accum = grads.means2d_norm_accum;
+    gg.means2d_norm_scale_x = grads.means2d_norm_scale[0];
+    gg.means2d_norm_scale_y = grads.means2d_norm_scale[1];
     B::rasterize_backward(raster_inputs(buf, g), cam, raster_settings(req, buf), buf.raster, dout, gg);
     if (d_means_extra) B::add(int64_t(3 * n), d_means_extra, buf.d_means.data());
     if (grads.opacity) B::add(int64_t(n), buf.d_opacity.data(), grads.opacity);

@@ -175,7 +175,10 @@ HAHA_HD void gaussian_backward_one(const GaussianInputs<T>& in, const CameraT<T>
   pg.opacity = sum[5];
   pg.z = sum[6];
   if (d_m2) d_m2[0] = pg.mx, d_m2[1] = pg.my;
-  if (grads.means2d_norm_accum) grads.means2d_norm_accum[i] += std::sqrt(pg.mx * pg.mx + pg.my * pg.my);
+  if (grads.means2d_norm_accum) {
+    const T sx = grads.means2d_norm_scale_x * pg.mx, sy = grads.means2d_norm_scale_y * pg.my;
+    grads.means2d_norm_accum[i] += std::sqrt(sx * sx + sy * sy);
+  }
   ProjectedGaussian<T> proj;
   ProjectionCache<T> cache;
   project_gaussian(cam, in.means + 3 * i, in.quats + 4 * i, in.scales + 3 * i, in.opacities[i], antialiased, proj,

@@ -83,8 +83,10 @@ struct GaussianGrads {
   T* sh = nullptr;         // (N, K, 3) when inputs.sh is set
   T* means2d = nullptr;    // (N, 2) dL/d(screen centre) in pixels: the densification
                            // statistic (3DGS's NDC units: multiply x by W/2 and y by H/2)
-  T* means2d_norm_accum = nullptr;  // (N) ACCUMULATED (+=) |dL/d(screen centre)| in pixels,
-                                    // for Gaussians with radii > 0 (3DGS densification sum)
+  T* means2d_norm_accum = nullptr;  // (N) ACCUMULATED (+=) |(sx dL/dx, sy dL/dy)| of the screen
+                                    // centre, for Gaussians with radii > 0 (3DGS densification
+                                    // sum); sx, sy below: 1 gives pixels, (W/2, H/2) NDC units
+  T means2d_norm_scale_x = 1, means2d_norm_scale_y = 1;
   T* background = nullptr;        // (H, W, 3) when settings.background is set
   T* background_color = nullptr;  // (3) when settings.background is null
 };

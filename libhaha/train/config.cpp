@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "body/avatar.h"
 #include "core/error.h"
 
 namespace haha {
@@ -273,6 +274,7 @@ void validate_config(const TrainConfig& c) {
   need(c.s1.max_gaussians >= 1, "s1.max_gaussians", "must be >= 1");
   need(c.s2.texture_size >= 4 && c.s2.texture_size <= 8192, "s2.texture_size", "must be in [4, 8192]");
   need(c.s3.prune_threshold < 1, "s3.prune_threshold", "must be < 1");
+  need(c.s3.depth_margin <= kMaxDepthMargin, "s3.depth_margin", "must be <= 1 (metres; the avatar format's limit)");
   need(c.log_every >= 1, "log_every", "must be >= 1");
   need(c.premultiplied == "auto" || c.premultiplied == "true" || c.premultiplied == "false", "premultiplied",
        "must be auto, true or false");

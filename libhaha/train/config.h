@@ -56,9 +56,11 @@ struct Stage1Config {
   LossWeights w{};
   // Face-bound densification (clone / split, children keep the parent face).
   int densify_from = 100, densify_until = 2500, densify_every = 201;
-  // Mean screen-space gradient norm (3DGS NDC units). The release's 5e-5 sits at the median
-  // of this statistic with these losses (every other visible Gaussian would densify); 2e-4
-  // is about the 90th percentile, measured on the synthetic subject.
+  // Mean over views of the screen-space gradient norm (3DGS NDC units, each axis its own;
+  // a per-view gradient, so the same at any batch size). The release's 5e-5 sits at the
+  // median of this statistic with these losses (every other visible Gaussian would
+  // densify); 2e-4 is about the 90th percentile on the synthetic subject at batch 1 and 4
+  // (tiny preset, measured: README "Results on the embedded sample").
   double densify_grad = 2e-4;
   double densify_clone_scale = 0.005;  // max local scale <= this: clone, else split
   double densify_split_div = 1.6;   // split children's scales are divided by this
@@ -86,7 +88,7 @@ struct Stage3Config {
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
-  double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres)
+  double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)
 };
 
 struct TrainConfig {
@@ -96,7 +98,7 @@ struct TrainConfig {
   int batch = 4;                 // frames per step (gradients averaged)
   double face_scale_divisor = 0.05;
   double scale_max = 0.1;        // scale activation: s = scale_max * sigmoid(logit)
-  std::string premultiplied = "auto";  // images already composited on black: auto|true|false
+  std::string premultiplied = "auto";  // images already composited on black: auto (dataset.json's flag)|true|false
   int checkpoint_every = 500;    // steps (plus every stage end)
   int log_every = 50;            // progress lines
   bool random_background = true; // stages 1 and 3

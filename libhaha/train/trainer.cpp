@@ -88,9 +88,18 @@ std::vector<SmplxParams> Trainer::refined_params() const {
   for (int i = 0; i < p_->nf; ++i) out.push_back(p_->frame_params(i));
   return out;
 }
+std::vector<float> Trainer::densify_statistic() const {
+  std::vector<float> s(p_->grad_accum.size(), 0.0f);
+  for (size_t i = 0; i < s.size(); ++i)
+    if (p_->grad_count[i] > 0) s[i] = p_->grad_accum[i] / p_->grad_count[i];
+  return s;
+}
 std::array<double, 3> Trainer::stage_seconds() const { return p_->seconds; }
 int64_t Trainer::skipped_steps() const { return p_->skipped; }
 bool Trainer::lpips_active() const { return p_->lpips != nullptr; }
 void Trainer::set_gradient_hook(std::function<void(int, std::vector<float>&)> hook) { p_->hook = std::move(hook); }
+void Trainer::set_pose_gradient_hook(std::function<void(const std::string&, const std::vector<float>&)> hook) {
+  p_->pose_hook = std::move(hook);
+}
 
 }  // namespace haha

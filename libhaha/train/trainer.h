@@ -107,6 +107,9 @@ class Trainer {
   Avatar stage1_avatar() const;
   bool has_stage1() const;
   std::vector<SmplxParams> refined_params() const;  // per training frame, with the shared betas
+  // Stage 1: per Gaussian, the densification statistic since the last densification (mean
+  // over the views that saw it of |dL/d(screen centre)| in NDC units; 0 where unseen).
+  std::vector<float> densify_statistic() const;
   std::array<double, 3> stage_seconds() const;      // wall time spent in each stage
   int64_t skipped_steps() const;
   // Whether the LPIPS-VGG loss term is in use (weights given, with a VGG part, and images
@@ -116,6 +119,10 @@ class Trainer {
   // Test hook: called before each optimiser update with the stage and its first gradient
   // buffer (offsets / texture / opacity logits), which it may alter.
   void set_gradient_hook(std::function<void(int stage, std::vector<float>& grad)> hook);
+  // Test hook: called in stage 1 with pose refinement with each pose-refinement gradient
+  // as the optimiser receives it, by its group name ("betas", "frame<i>.body",
+  // "frame<i>.fine" for the frames the batch drew).
+  void set_pose_gradient_hook(std::function<void(const std::string& group, const std::vector<float>& grad)> hook);
 
  private:
   struct Impl;

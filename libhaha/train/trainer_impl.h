@@ -96,6 +96,7 @@ struct Trainer::Impl {
   std::vector<std::vector<float>> d_frame_body, d_frame_fine;
   std::vector<uint8_t> frame_touched;
   std::function<void(int, std::vector<float>&)> hook;
+  std::function<void(const std::string&, const std::vector<float>&)> pose_hook;
 
   Impl(const TrainConfig& c, TrainInput input)
       : cfg(c), in(std::move(input)), body(*in.body), lbs(*in.body) {}
@@ -278,8 +279,8 @@ struct Trainer::Impl {
   // Stage 1.
   bool step1(LossTerms& terms, std::string& event);
   const float* knn_term(const LossWeights& w, bool need_knn, LossTerms& terms);
-  void accumulate_pose_grad(int fi, float inv_b);
-  void update_stage1(float inv_b);
+  void accumulate_pose_grad(int fi);
+  void update_stage1();
 
   void densify(std::string& event);
 

@@ -35,8 +35,9 @@ const float* Trainer::Impl::knn_term(const LossWeights& w, bool need_knn, LossTe
 }
 
 // Pose refinement: the frame's SMPL-X gradient from the posed-vertex gradient, added to its
-// body / fine groups (and the shared betas).
-void Trainer::Impl::accumulate_pose_grad(int fi, float inv_b) {
+// body / fine groups (and the shared betas). d_verts already holds the batch mean's 1/B
+// (the image gradient was scaled by it), so nothing is divided here.
+void Trainer::Impl::accumulate_pose_grad(int fi) {
   const SmplxParams fp = frame_params(fi);
   SmplxGrad<float> sg = lbs.make_grad(fp);
   lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
@@ -48,11 +49,11 @@ void Trainer::Impl::accumulate_pose_grad(int fi, float inv_b) {
     frame_touched[size_t(fi)] = 1;
   }
   pose_to_groups(sg, db.data(), dfn.data(), /*accumulate=*/true);
-  for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q] * inv_b;
+  for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q];
 }
 
-// Adam on the Gaussians, and on the refined poses and betas (batch means).
-void Trainer::Impl::update_stage1(float inv_b) {
+// Adam on the Gaussians, and on the refined poses and betas (gradients of the batch mean).
+void Trainer::Impl::update_stage1() {
   const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
   adam.set_lr(adam.group("offset"), sched(step));
   adam.step(adam.group("offset"), g.offset.data(), d_offset.data());
@@ -60,15 +61,17 @@ void Trainer::Impl::update_stage1(float inv_b) {
   adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
   adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
   if (cfg.s1.refine_pose) {
+    if (pose_hook) pose_hook("betas", d_betas);  // exactly what Adam receives
     adam.step(adam.group("betas"), betas.data(), d_betas.data());
     for (int i = 0; i < nf; ++i) {
-      if (!frame_touched[size_t(i)]) continue;
-      // Mean over the batch: a frame drawn twice in one batch counts twice.
-      for (float& x : d_frame_body[size_t(i)]) x *= inv_b;
-      for (float& x : d_frame_fine[size_t(i)]) x *= inv_b;
+      if (!frame_touched[size_t(i)]) continue;  // a frame drawn twice in one batch counts twice
       std::vector<float> body_vals(kPoseBodyGroup), fine_vals(kPoseFineGroup);
       SmplxParams& p = params[size_t(i)];
       pose_to_groups(p, body_vals.data(), fine_vals.data());
+      if (pose_hook) {
+        pose_hook("frame" + std::to_string(i) + ".body", d_frame_body[size_t(i)]);
+        pose_hook("frame" + std::to_string(i) + ".fine", d_frame_fine[size_t(i)]);
+      }
       adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
       adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
       groups_to_pose(body_vals.data(), fine_vals.data(), p);
@@ -127,10 +130,15 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     gr.scale = d_scale.data();
     gr.color = d_color.data();
     gr.means2d_norm_accum = grad_accum.data();
+    // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size,
+    // each axis its own; times B, since d_image carries the batch mean's 1/B and the
+    // statistic is a per-view gradient (the same frame gives the same value at any batch).
+    gr.means2d_norm_scale[0] = 0.5f * float(W) * float(B);
+    gr.means2d_norm_scale[1] = 0.5f * float(H) * float(B);
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, d_means_ptr, gr);
     for (int i = 0; i < n; ++i)
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
-    if (cfg.s1.refine_pose) accumulate_pose_grad(fi, inv_b);
+    if (cfg.s1.refine_pose) accumulate_pose_grad(fi);
   }
   if (!rot_unit.empty() && !d_rot_unit.empty() && w.knn > 0 && n > 1)
     for (int i = 0; i < n; ++i) {
@@ -139,7 +147,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
       for (int c = 0; c < 4; ++c) d_rotation[4 * size_t(i) + c] += dr[c];
     }
   // The batch mean of the image terms is in d_image's scale; the KNN gradient was added
-  // once; the densification statistic stays a per-view sum (3DGS).
+  // once; the densification statistic is a sum of per-view gradients (3DGS).
   d_scale_logit.resize(3 * size_t(n));
   d_color_logit.resize(3 * size_t(n));
   activation_backward(act, float(cfg.scale_max), n, d_scale.data(), d_color.data(), nullptr, d_scale_logit.data(),
@@ -151,7 +159,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     if (frame_touched[size_t(i)]) ok = finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)]);
   if (!ok) return false;
 
-  update_stage1(inv_b);
+  update_stage1();
   // Densification, after the update (3DGS order), on the completed-step count.
   const int done_steps = step + 1;
   const Stage1Config& s1 = cfg.s1;
@@ -163,12 +171,8 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
 
 void Trainer::Impl::densify(std::string& event) {
   const Stage1Config& s1 = cfg.s1;
-  // 3DGS's threshold is in NDC units: the pixel-space gradient times half the image size.
-  std::vector<float> ndc(grad_accum.size());
-  const float to_ndc = 0.5f * float(std::max(W, H));
-  for (size_t i = 0; i < ndc.size(); ++i) ndc[i] = grad_accum[i] * to_ndc;
-  const DensifyPlan plan =
-      plan_densify(g, float(cfg.scale_max), ndc, grad_count, s1.densify_grad, s1.densify_clone_scale, s1.max_gaussians);
+  const DensifyPlan plan = plan_densify(g, float(cfg.scale_max), grad_accum, grad_count, s1.densify_grad,
+                                       s1.densify_clone_scale, s1.max_gaussians);
   const int before = g.size();
   const DensifyResult r = apply_densify(g, plan, float(cfg.scale_max), s1.densify_split_std, s1.densify_split_div,
                                         hash64(cfg.seed, stream(1, kSplit), uint64_t(step)));
@@ -176,8 +180,8 @@ void Trainer::Impl::densify(std::string& event) {
   knn_idx.clear();
   // Distribution of the statistic (visible Gaussians), to judge the threshold.
   std::vector<float> seen;
-  for (size_t i = 0; i < ndc.size(); ++i)
-    if (grad_count[i] > 0) seen.push_back(ndc[i] / grad_count[i]);
+  for (size_t i = 0; i < grad_accum.size(); ++i)
+    if (grad_count[i] > 0) seen.push_back(grad_accum[i] / grad_count[i]);
   std::sort(seen.begin(), seen.end());
   auto pct = [&](double q) { return seen.empty() ? 0.0 : double(seen[size_t(q * double(seen.size() - 1))]); };
   char buf[192];

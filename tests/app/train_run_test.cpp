@@ -129,9 +129,24 @@ TEST_F(TrainRunTest, CheckpointsRoundTrip) {
   EXPECT_TRUE(leftovers().empty());
 }
 
+TEST_F(TrainRunTest, PremultipliedComesFromTheDatasetFlagThenTheSource) {
+  Dataset ds;
+  ds.source = "haha synth: anything";
+  EXPECT_TRUE(dataset_premultiplied(ds, "auto"));  // older files: inferred as before
+  ds.premultiplied = 0;
+  EXPECT_FALSE(dataset_premultiplied(ds, "auto"));  // the flag wins over the source text
+  EXPECT_TRUE(dataset_premultiplied(ds, "true"));   // and the config over both
+  ds.source = "my own renders on black";
+  ds.premultiplied = -1;
+  EXPECT_FALSE(dataset_premultiplied(ds, "auto"));
+  ds.premultiplied = 1;
+  EXPECT_TRUE(dataset_premultiplied(ds, "auto"));
+  EXPECT_FALSE(dataset_premultiplied(ds, "false"));
+}
+
 TEST_F(TrainRunTest, DatasetFramesAreResizedWithTheirCameras) {
   Dataset ds = read_dataset(make_dataset());
-  EXPECT_TRUE(dataset_premultiplied(ds, "auto"));  // made by "haha synth"
+  EXPECT_TRUE(dataset_premultiplied(ds, "auto"));  // made by "haha synth" (no flag: its source)
   EXPECT_FALSE(dataset_premultiplied(ds, "false"));
   const std::vector<TrainFrame> full = dataset_frames(ds, Split::train, 0);
   const std::vector<TrainFrame> half = dataset_frames(ds, Split::train, 24);

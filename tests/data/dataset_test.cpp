@@ -48,6 +48,7 @@ void expect_same_dataset(const Dataset& a, const Dataset& b) {
   EXPECT_EQ(a.fps, b.fps);
   EXPECT_EQ(a.gender, b.gender);
   EXPECT_EQ(a.source, b.source);
+  EXPECT_EQ(a.premultiplied, b.premultiplied);
   ASSERT_EQ(a.frames.size(), b.frames.size());
   for (size_t i = 0; i < a.frames.size(); ++i) {
     const DatasetFrame &fa = a.frames[i], &fb = b.frames[i];
@@ -104,6 +105,18 @@ TEST_F(DatasetTest, RoundTripPerFrameCamerasAndTrueParams) {
   expect_same_dataset(ds, back);
   EXPECT_FALSE(back.is_static_camera());
   EXPECT_TRUE(fs::is_regular_file(path("ds/smplx/params_true.npz")));
+}
+
+TEST_F(DatasetTest, PremultipliedFlagRoundTripsAndIsAbsentWhenUnknown) {
+  for (int flag : {-1, 0, 1}) {
+    Dataset ds = small_dataset(2);
+    ds.premultiplied = flag;
+    const std::string d = path("ds" + std::to_string(flag + 1));
+    write_dataset(ds, d);
+    EXPECT_EQ(read_dataset(d).premultiplied, flag);
+    // Unknown writes nothing: files stay as older builds wrote (and read) them.
+    EXPECT_EQ(read_text(d + "/dataset.json").find("premultiplied") == std::string::npos, flag == -1);
+  }
 }
 
 TEST_F(DatasetTest, HeadersModeDefersDecodingButChecksFiles) {
@@ -243,6 +256,7 @@ TEST_F(DatasetTest, DatasetJsonProblemsNameTheFileAndKey) {
   with("\"version\": 1", "\"version\": 7", {json, "version"});
   with("\"gender\": \"female\"", "\"gender\": \"robot\"", {json, "gender", "robot"});
   with("\"fps\": 25", "\"fps\": -1", {json, "fps"});
+  with("\"gender\": \"female\"", "\"gender\": \"female\", \"premultiplied\": \"yes\"", {json, "premultiplied", "true or false"});
   with("\"format\"", "\"formatt\"", {json, "formatt", "unknown"});
   with("\"camera\": {", "\"kamera\": {", {json, "kamera", "unknown"});
   with("\"smplx\": \"smplx/params.npz\"", "\"smplx\": \"smplx/nope.npz\"", {"smplx/nope.npz", "missing"});

@@ -552,6 +552,7 @@ TEST_F(SynthDataset, ReadsBackWithMatchingCountsAndConsistentMasks) {
   EXPECT_EQ(ds.indices(Split::test).size(), 3u);
   ASSERT_EQ(ds.params_true.size(), 9u);
   EXPECT_TRUE(ds.is_static_camera());
+  EXPECT_EQ(ds.premultiplied, 1);  // on black with soft coverage masks, flagged
   EXPECT_EQ(ds.width, 48);
   EXPECT_FLOAT_EQ(ds.frames[0].camera.fx, sum.camera.fx);
   EXPECT_FLOAT_EQ(ds.frames[0].camera.cx, 24.0f);

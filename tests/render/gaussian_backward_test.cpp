@@ -326,6 +326,30 @@ TEST(GaussianBackward, MeansTwoDNormAccumulates) {
   EXPECT_GT(visible, n / 2);
 }
 
+TEST(GaussianBackward, MeansTwoDNormScalesEachAxisByItsOwnFactor) {
+  // NDC units on a non-square image: x by W/2, y by H/2 (not one factor for both).
+  const auto cam = make_camera(40, 32, 36);
+  auto p = make_problem([&](unsigned s) { return random_scene(10, s, cam, 0.04, 0.15); }, cam, false, true, true);
+  GaussianRasterState<double> st;
+  run_forward(p.b, p.cam, false, st);
+  const int n = int(p.b.opacities.size());
+  std::vector<double> m2(2 * n), acc(n, 0.0);
+  GaussianGrads<double> g;
+  g.means2d = m2.data();
+  g.means2d_norm_accum = acc.data();
+  g.means2d_norm_scale_x = 0.5 * p.cam.width;
+  g.means2d_norm_scale_y = 0.5 * p.cam.height;
+  GaussianRasterOutputGrads<double> d{p.w.color.data(), p.w.alpha.data(), p.w.depth.data(), p.w.composite.data()};
+  rasterize_gaussians_backward(p.b.inputs(), p.cam, settings_of(p.b, false), st, d, g);
+  int anisotropic = 0;
+  for (int i = 0; i < n; ++i) {
+    const double x = 20.0 * m2[2 * i], y = 16.0 * m2[2 * i + 1];
+    EXPECT_NEAR(acc[size_t(i)], std::hypot(x, y), 1e-12 * (1 + std::hypot(x, y)));
+    anisotropic += std::fabs(std::hypot(x, y) - 20.0 * std::hypot(m2[2 * i], m2[2 * i + 1])) > 1e-6;
+  }
+  EXPECT_GT(anisotropic, n / 2);  // one factor for both axes would differ for these
+}
+
 TEST(GaussianBackward, FloatMatchesDouble) {
   // The float instantiation (radix-sorted bins) gives the double gradients up to float
   // rounding: max error <= 1e-4 of the largest gradient of each input (seen: ~1e-6).

@@ -97,6 +97,9 @@ TEST(TrainConfig, ValidationRejectsOutOfRangeValues) {
   check("s1.knn.k=1", "config: s1.knn.k: must be >= 2 (the set holds the Gaussian itself)");
   check("premultiplied=sometimes", "config: premultiplied: must be auto, true or false");
   check("s2.texture_size=2", "config: s2.texture_size: must be in [4, 8192]");
+  // Checked before training, not when the finished avatar is saved.
+  check("s3.depth_margin=1.5", "config: s3.depth_margin: must be <= 1 (metres; the avatar format's limit)");
+  check("s3.depth_margin=-0.01", "config: s3.depth_margin: must be finite and >= 0");
 }
 
 TEST(TrainConfig, PairsRoundTripExactly) {
