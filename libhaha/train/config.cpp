@@ -62,6 +62,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s0.w.outside", K::Double, &s0.w_outside, "pose pre-fit: weight of body outside the mask"});
   v.push_back({"s0.w.inside", K::Double, &s0.w_inside, "pose pre-fit: weight of mask not covered"});
   v.push_back({"s0.w.prior", K::Double, &s0.w_prior, "pose pre-fit: weight of the squared change from the fit"});
+  v.push_back({"s0.window", K::Int, &s0.window,
+               "pose pre-fit: temporal prior, anchor = fit averaged over +-N consecutive frames (0 = own fit)"});
 
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});

@@ -41,6 +41,9 @@ struct Stage0Config {
   double w_inside = 0.2;   // mask left uncovered (clothes and hair make it larger than the body)
   double w_prior = 0.01;   // squared change of the pose values (rad) and transl (m) from the fit:
                            // a silhouette leaves many joints unconstrained, Adam would move them anyway
+  int window = 0;          // temporal prior: the anchor of that change is the fit averaged over
+                           // +-window consecutive training frames (monocular video), not the
+                           // frame's own noisy fit; 0 = own fit
 };
 
 struct Stage1Config {

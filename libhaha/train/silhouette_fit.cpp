@@ -1,8 +1,10 @@
 #include "train/silhouette_fit.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "body/lbs.h"
+#include "body/rotation.h"
 #include "core/parallel.h"
 #include "render/avatar_render.h"
 #include "render/mesh_antialias.h"
@@ -10,6 +12,36 @@
 #include "train/pose_groups.h"
 
 namespace haha {
+
+std::vector<std::vector<float>> temporal_pose_anchors(const std::vector<TrainFrame>& frames, int half_window) {
+  const int n = int(frames.size());
+  std::vector<std::vector<float>> groups(static_cast<size_t>(n), std::vector<float>(kPoseBodyGroup));
+  std::vector<float> fine(kPoseFineGroup);
+  for (int i = 0; i < n; ++i) pose_to_groups(frames[size_t(i)].params, groups[size_t(i)].data(), fine.data());
+  std::vector<std::vector<float>> out = groups;
+  constexpr int kRotations = kPoseBodyValues / 3;  // global orient + 21 body joints
+  for (int i = 0; i < n; ++i) {
+    const int lo = std::max(0, i - half_window), hi = std::min(n - 1, i + half_window);
+    const double count = hi - lo + 1;
+    for (int r = 0; r < kRotations; ++r) {
+      const float* wi = &groups[size_t(i)][size_t(3 * r)];
+      const Mat3<double> Ri = rodrigues(Vec3d(wi[0], wi[1], wi[2]));
+      Vec3d mean(0, 0, 0);
+      for (int k = lo; k <= hi; ++k) {
+        const float* wk = &groups[size_t(k)][size_t(3 * r)];
+        mean = mean + matrix_to_axis_angle(transpose(Ri) * rodrigues(Vec3d(wk[0], wk[1], wk[2])));
+      }
+      const Vec3d a = matrix_to_axis_angle(Ri * rodrigues(mean / count));
+      for (int c = 0; c < 3; ++c) out[size_t(i)][size_t(3 * r + c)] = float(a[c]);
+    }
+    for (int c = kPoseBodyValues; c < kPoseBodyGroup; ++c) {
+      double t = 0;
+      for (int k = lo; k <= hi; ++k) t += groups[size_t(k)][size_t(c)];
+      out[size_t(i)][size_t(c)] = float(t / count);
+    }
+  }
+  return out;
+}
 
 SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainFrame>& frames,
                                        const Stage0Config& opt) {
@@ -24,7 +56,10 @@ SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainF
   LbsCache<float> cache;
   AvatarRenderBuffers buf;
   std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, d_image;
-  for (TrainFrame& f : frames) {
+  const std::vector<std::vector<float>> anchors =
+      opt.window > 0 ? temporal_pose_anchors(frames, opt.window) : std::vector<std::vector<float>>();
+  for (size_t fi = 0; fi < frames.size(); ++fi) {
+    TrainFrame& f = frames[fi];
     const int P = f.camera.width * f.camera.height;
     SmplxParams& p = f.params;
     Adam adam;
@@ -32,6 +67,7 @@ SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainF
     std::vector<float> pb(kPoseBodyGroup), pf(kPoseFineGroup), db(kPoseBodyGroup), dfn(kPoseFineGroup);
     std::vector<float> p0(kPoseBodyGroup);
     pose_to_groups(p, p0.data(), pf.data());
+    if (!anchors.empty()) p0 = anchors[fi];
     AvatarRenderRequest req;
     req.camera = &f.camera;
     req.body = &topology;

@@ -3,8 +3,9 @@
 // inside the mask and covers it. Clothes and hair make the mask larger than the body, so the
 // two sides weigh differently: body outside the mask costs `w_outside`, mask left uncovered
 // costs `w_inside` (small); both are means over the pixels. A prior `w_prior` on the squared
-// change from the given fit holds the joints a silhouette does not constrain. Opt-in
-// (`s0.steps`).
+// change from the given fit holds the joints a silhouette does not constrain; with
+// `s0.window` > 0 that anchor is the fit averaged over neighbouring frames (a temporal prior
+// for monocular video: independent fit errors average out). Opt-in (`s0.steps`).
 #pragma once
 
 #include <vector>
@@ -18,6 +19,12 @@ namespace haha {
 struct SilhouetteFitReport {
   std::vector<double> loss_start, loss_end;  // per frame
 };
+
+// The anchors of the prior: each frame's body group (kPoseBodyGroup values: orient, body
+// pose, transl) averaged over frames [i - half_window, i + half_window] (clipped at the
+// ends). Rotations are averaged in the tangent space at the frame's own rotation (no wrap at
+// pi), translations linearly.
+std::vector<std::vector<float>> temporal_pose_anchors(const std::vector<TrainFrame>& frames, int half_window);
 
 // Updates every frame's params in place (betas and expression untouched).
 SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainFrame>& frames,
