@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "io/camera_json.h"
+#include "io/json_text.h"
 #include "io/smplx_params_io.h"
 
 namespace haha {
@@ -32,12 +33,6 @@ Split parse_split(const std::string& s, const std::string& where) {
 }
 
 namespace {
-
-std::string json_message(const std::exception& e) {
-  std::string m = e.what();
-  const auto p = m.find("] ");
-  return p == std::string::npos ? m : m.substr(p + 2);
-}
 
 // Camera <-> the dataset.json camera object (io/camera_json.h's keys minus the size,
 // which is the dataset's).
@@ -201,7 +196,7 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
     try {
       root = ojson::parse(ss.str());
     } catch (const std::exception& e) {
-      fail(json_path, "invalid JSON: " + json_message(e));
+      fail(json_path, "invalid JSON: " + json_error_message(e));
     }
   }
   auto where = [&](const std::string& key) { return json_path + ": " + key; };

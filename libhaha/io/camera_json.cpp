@@ -3,13 +3,13 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
-#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "io/json_text.h"
 
 namespace haha {
 
@@ -29,13 +29,6 @@ std::string num(double v) {
   s.precision(9);
   s << v;
   return s.str();
-}
-
-// nlohmann messages start with "[json.exception.xxx] "; keep the readable part.
-std::string json_message(const std::exception& e) {
-  std::string m = e.what();
-  const auto p = m.find("] ");
-  return p == std::string::npos ? m : m.substr(p + 2);
 }
 
 double number(const json& v, const std::string& where, const std::string& key) {
@@ -142,21 +135,7 @@ std::string fnum(float v) {
 }  // namespace
 
 Camera parse_camera_json(const std::string& text, const std::string& where) {
-  // Reject duplicate keys in the root object (nlohmann would keep the last silently).
-  std::set<std::string> seen;
-  std::string dup;
-  json::parser_callback_t cb = [&](int depth, json::parse_event_t ev, json& parsed) {
-    if (ev == json::parse_event_t::key && depth == 1 && !seen.insert(parsed.get<std::string>()).second && dup.empty())
-      dup = parsed.get<std::string>();
-    return true;
-  };
-  json root;
-  try {
-    root = json::parse(text, cb);
-  } catch (const std::exception& e) {
-    fail(where, "invalid JSON: " + json_message(e));
-  }
-  if (!dup.empty()) fail(where, dup + ": duplicate key");
+  const json root = parse_json_text(text, where);
   if (!root.is_object()) fail(where, "expected a JSON object at the top level");
   for (const auto& [k, v] : root.items()) {
     (void)v;
