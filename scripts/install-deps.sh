@@ -27,6 +27,11 @@ fi
 if [ ! -d "$(dirname "$0")/../tools/validator/node_modules/gltf-validator" ]; then
   npm ci --prefix "$(dirname "$0")/../tools/validator" --no-audit --no-fund --loglevel=error >/dev/null
 fi
+# The keypoint + mask tool of `haha fit-video` (tools/keypoints: TF.js wasm and the MediaPipe
+# models, pinned; ~350 MB). HAHA_NO_KEYPOINTS=1 leaves it out (its test then skips).
+if [ "${HAHA_NO_KEYPOINTS:-0}" != 1 ]; then
+  bash "$(dirname "$0")/setup-keypoints.sh"
+fi
 # The web viewer's pinned npm packages (three, fflate; playwright-core, pngjs for its test).
 if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../samples/web/node_modules/playwright-core" ]; then
   npm ci --prefix "$(dirname "$0")/../samples/web" --no-audit --no-fund --loglevel=error >/dev/null
