@@ -92,9 +92,9 @@ if (!avatar) {
   times.push(['train', run(['train', '--data', `${work}/data`, '--out', `${work}/run`, '--preset', 'tiny', 'resolution=64',
     's1.steps=50', 's1.densify.from=10', 's1.densify.until=40', 's1.densify.every=20', 's2.steps=30', 's2.texture_size=64',
     's3.steps=30', 's3.prune_every=20', 'log_every=1000'])]);
-  // Pose correctives embedded: the viewer then reposes exactly like the trainer.
-  // Two importance tiers: the viewer reads and joins both (haha pack --lod).
-  times.push(['pack', run(['pack', `${work}/run`, '--out', `${work}/avatar.glb`, '--pose-correctives', '--lod', '2'])]);
+  // Pose correctives embedded (compact, the default): the viewer decodes them and reposes
+  // like haha render. Two importance tiers: the viewer reads and joins both (haha pack --lod).
+  times.push(['pack', run(['pack', `${work}/run`, '--out', `${work}/avatar.glb`, '--lod', '2'])]);
   avatar = `${work}/avatar.glb`;
   console.log(`avatar: ${avatar} (${times.map(([k, s]) => `${k} ${s.toFixed(1)} s`).join(', ')})`);
 }
