@@ -84,6 +84,7 @@ function psnr(a, b, bg) {
 
 const t0 = Date.now();
 let avatar = opts.avatar && path.resolve(opts.avatar);
+const packedHere = !avatar;  // then the file embeds pose correctives (the default pack)
 let motion = opts.motion && path.resolve(opts.motion);
 if (!opts.haha) { console.error('viewer_test: --haha PATH is required (the reference renderer)'); process.exit(1); }
 if (!avatar) {
@@ -140,7 +141,9 @@ try {
   cam.K[1][2] += 0.0273 * size;
   fs.writeFileSync(`${work}/cam.json`, JSON.stringify(cam));
   console.log(`viewer: ${info.gaussians} Gaussians, ${info.vertices} vertices, ${info.frames} motion frames, ` +
-              `loaded in ${info.loadMs.toFixed(0)} ms, ${info.floatBlend ? 'float32' : 'half-float'} accumulation`);
+              `loaded in ${info.loadMs.toFixed(0)} ms, ${info.floatBlend ? 'float32' : 'half-float'} accumulation` +
+              `${info.poseCorrectives ? ', pose correctives' : ''}`);
+  if (packedHere && !info.poseCorrectives) { console.log('FAIL: the default pack embeds pose correctives; the viewer has none'); failed = true; }
 
   // Reference: haha render of motion frame `frame` (frames 0 and `frame` with --every).
   fs.rmSync(`${work}/ref`, { recursive: true, force: true });
