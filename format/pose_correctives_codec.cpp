@@ -87,6 +87,8 @@ bool solve_small(std::vector<double> M, std::vector<double>& b, int r, int nrhs)
 }
 
 // Whether Draco predicts each coefficient from the previous point's (delta coding).
+// Measured on the procedural body (5,408 blocks, rank 1, 6 bits): 7,880 B with, 11,350 B
+// without (neighbouring vertices of a joint have similar blocks).
 constexpr bool kPredictCoefficients = true;
 
 // (count, 3, rank) coefficients from COEF_X / COEF_Y / COEF_Z.
@@ -215,8 +217,8 @@ EncodedPoseCorrectives encode_pose_correctives(const std::vector<float>& pd, int
   using dracoio::Type;
   const bool u16 = V <= 65536;
   std::vector<uint16_t> vertex16(vertex.begin(), vertex.end());
-  // Joint and vertex indices ascend: delta prediction makes them ~1 bit each. The
-  // coefficients of neighbouring vertices are related only loosely: measured both ways.
+  // Joint and vertex indices ascend: delta prediction makes them cheap (766 B for the
+  // procedural body's 5,408 blocks).
   std::vector<float> cxyz[3];  // one attribute per coordinate (Draco takes <= 16 components)
   for (int c = 0; c < 3; ++c) {
     cxyz[c].resize(size_t(e.count) * R);
