@@ -4,13 +4,14 @@
 // joint j maps that joint's 9 pose features (R_j - I) to v's 3 offset coordinates). Pose
 // correctives are local: per joint only the vertices whose block norm exceeds `threshold`
 // times that joint's largest block are kept; the kept blocks of a joint, stacked (3K x 9),
-// are approximated by a rank-r factorisation C W (r: see PoseCorrectiveCodec::energy) (C: 3K x r coefficients, W: r x 9 mixing
-// rows). The file stores one Draco point cloud (sequential; one point per kept (joint,
-// vertex) pair, sorted by joint then vertex) with JOINT (uint8), VERTEX (uint16/uint32)
-// and COEF_X, COEF_Y, COEF_Z (r floats each: the coefficients of that coordinate, each
-// joint's scaled into [-1, 1] and quantized with `bits`), and the mixing rows (54, r,
-// 9) float32 in a plain buffer. The mixing rows are refitted by least squares to the
-// coefficients as quantized, so quantization error is partly absorbed.
+// are approximated by a rank-r factorisation C W (C: 3K x r coefficients, W: r x 9 mixing
+// rows; r: see PoseCorrectiveCodec::energy). The file stores one Draco point cloud
+// (sequential; one point per kept (joint, vertex) pair, sorted by joint then vertex) with
+// JOINT (uint8), VERTEX (uint16/uint32) and COEF_X, COEF_Y, COEF_Z (r floats each: the
+// coefficients of that coordinate, each joint's scaled into [-1, 1] and quantized with
+// `bits`), and the mixing rows (54, r, 9) float32 in a plain buffer. The mixing rows are
+// refitted by least squares to the coefficients as quantized, so quantization error is
+// partly absorbed.
 #pragma once
 
 #include <array>
@@ -25,7 +26,7 @@ struct PoseCorrectiveCodec {
   // Chosen on the trained demo avatar (haha bench --corrective-sets, 50 poses) and on the
   // procedural body and the dense stand-in (tests/format/pose_correctives_slow_test.cpp);
   // figures in the README's storage section. Threshold 0.05 cost 0.5 dB on the demo's
-  // training poses against 0.02; bits 6 -> 8 add 40 % for 0.4 dB there.
+  // training poses against 0.02; t=0.01 with 8 bits costs 41 % more bytes for 0.4 dB there.
   double threshold = 0.02;  // keep blocks with norm > threshold x the joint's largest block norm
   int rank = 4;             // at most this many mixing rows per joint, 1..9
   double energy = 0.995;    // file rank: the fewest rows keeping this fraction of every joint's
