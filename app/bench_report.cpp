@@ -382,10 +382,12 @@ std::string bench_json(const BenchResult& r, const std::vector<std::string>& plo
                   {"texture_codec", p.setting.texture_codec},
                   {"texture_quality", p.setting.texture_quality},
                   {"texture_size", p.setting.texture_size},
+                  {"pose_correctives", p.setting.pose_correctives},
                   {"bytes", p.bytes.total},
                   {"gaussian_bytes", p.bytes.gaussians},
                   {"texture_bytes", p.bytes.texture},
                   {"mesh_bytes", p.bytes.mesh},
+                  {"pose_corrective_bytes", p.bytes.pose_correctives},
                   {"pack_ms", num(p.pack_ms)},
                   {"decode_ms", num(p.decode_ms)},
                   {"psnr_vs_original", num(p.psnr_vs_original)},
@@ -488,11 +490,11 @@ std::string bench_markdown(const BenchResult& r, const std::vector<std::string>&
     m += "## Packing against error\n\n";
     img("pack_size_error.png", "file size against PSNR vs the original");
     img("pack_time.png", "pack and decode time");
-    m += "| setting | file (KB) | Gaussians (KB) | texture (KB) | mesh (KB) | PSNR vs original (dB) | PSNR cost vs truth (dB) | pack (ms) | decode (ms) |\n";
-    m += "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    m += "| setting | file (KB) | Gaussians (KB) | texture (KB) | mesh (KB) | correctives (KB) | PSNR vs original (dB) | PSNR cost vs truth (dB) | pack (ms) | decode (ms) |\n";
+    m += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const PackPoint& p : r.packing)
       m += "| " + p.setting.name + " | " + kb(double(p.bytes.total)) + " | " + kb(double(p.bytes.gaussians)) + " | " +
-           kb(double(p.bytes.texture)) + " | " + kb(double(p.bytes.mesh)) + " | " +
+           kb(double(p.bytes.texture)) + " | " + kb(double(p.bytes.mesh)) + " | " + kb(double(p.bytes.pose_correctives)) + " | " +
            (p.identical ? std::string("identical")
                         : p.psnr_vs_original >= kPsnrCap ? ">= " + short_num(kPsnrCap)
                                                          : f("%.2f", p.psnr_vs_original)) +
@@ -591,10 +593,12 @@ BenchResult read_bench_json(const std::string& path) {
       p.setting.texture_codec = x.at("texture_codec");
       p.setting.texture_quality = x.at("texture_quality");
       p.setting.texture_size = x.at("texture_size");
+      p.setting.pose_correctives = x.value("pose_correctives", std::string());
       p.bytes.total = x.at("bytes");
       p.bytes.gaussians = x.at("gaussian_bytes");
       p.bytes.texture = x.at("texture_bytes");
       p.bytes.mesh = x.at("mesh_bytes");
+      p.bytes.pose_correctives = x.value("pose_corrective_bytes", size_t(0));
       p.pack_ms = d(x.at("pack_ms"));
       p.decode_ms = d(x.at("decode_ms"));
       p.psnr_vs_original = d(x.at("psnr_vs_original"));

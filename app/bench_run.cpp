@@ -230,11 +230,22 @@ BenchResult run_bench(const BenchRunOptions& o) {
         parse_gaussian_bits(spec, "--gaussian-bit-sets");  // refuse a bad entry before measuring anything
         settings.push_back(p);
       }
+      std::istringstream csets(o.corrective_sets);
+      for (std::string spec; std::getline(csets, spec, ';');) {
+        if (spec.empty()) continue;
+        PackSetting p;
+        p.name = "correctives " + spec;
+        p.group = "pose correctives";
+        p.pose_correctives = spec;
+        if (spec != "none" && spec != "dense") parse_pose_corrective_codec(spec, "--corrective-sets");  // refuse a bad entry early
+        settings.push_back(p);
+      }
       r.packing = sweep_packing(filtered, settings, ev, log);
     });
     r.notes.push_back("Packing: PSNR vs original compares renders of the unpacked .glb with renders of the trained "
-                      "avatar on the same poses; the unpacked avatar uses the body model's pose correctives (as "
-                      "`haha render --model` does), so only quantization and texture coding are measured. "
+                      "avatar on the same poses; the unpacked avatar uses its embedded pose correctives (the "
+                      "default: compact) or, where the file has none, the body model's (as `haha render --model` "
+                      "does), except for the setting \"correctives none\" (a loader without the body model). "
                       "Pack time: one run; decode time: fastest of 3 runs; both in memory.");
   }
   if (!skip.count("render")) {

@@ -201,12 +201,16 @@ std::vector<uint8_t> pack_with_setting(const Avatar& a, const PackSetting& s, Pa
   o.texture_codec = texture_codec_from_name(s.texture_codec);
   o.texture_quality = s.texture_quality;
   o.texture_size = s.texture_size;
+  if (s.pose_correctives == "none") o.pose_correctives = PoseCorrectives::none;
+  else if (s.pose_correctives == "dense") o.pose_correctives = PoseCorrectives::dense;
+  else if (!s.pose_correctives.empty()) o.pose_corrective_codec = parse_pose_corrective_codec(s.pose_correctives, "--corrective-sets");
   PackedSizes sz;
   std::vector<uint8_t> b = pack_avatar(a, o, &sz);
   bytes.total = b.size();
   bytes.gaussians = sz.gaussians;
   bytes.texture = sz.texture + sz.texture_exact;
   bytes.mesh = sz.mesh + sz.skeleton;
+  bytes.pose_correctives = sz.pose_correctives;
   return b;
 }
 
@@ -274,8 +278,9 @@ std::vector<PackPoint> sweep_packing(const Avatar& original, const std::vector<P
     }
     p.decode_ms = best_decode;
     // Render it as the runtime does with --model: the original body's pose correctives
-    // when the file has none; a baked rest shape takes no betas.
-    if (un.body.posedirs.empty() && un.body.num_verts == original.body.num_verts)
+    // when the file has none (except for an explicit "none" setting, which measures a
+    // loader without the body model); a baked rest shape takes no betas.
+    if (un.body.posedirs.empty() && un.body.num_verts == original.body.num_verts && s.pose_correctives != "none")
       un.body.posedirs = original.body.posedirs;
     if (un.betas.size() > size_t(un.body.num_shape)) un.betas.resize(size_t(un.body.num_shape));
     if (un.expression.size() > size_t(un.body.num_expr)) un.expression.resize(size_t(un.body.num_expr));

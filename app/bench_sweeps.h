@@ -95,10 +95,13 @@ struct PackSetting {
   std::string texture_codec = "jpg";  // png | jpg | webp
   int texture_quality = 95;
   int texture_size = 0;      // 0 = the trained size
+  // Pose correctives: "" = the format's default (compact, default codec), "none", "dense",
+  // or a compact codec "t=0.05,r=2,b=8" (format/pose_correctives_codec.h).
+  std::string pose_correctives;
 };
 
 struct PackedBytes {
-  size_t total = 0, gaussians = 0, texture = 0, mesh = 0;
+  size_t total = 0, gaussians = 0, texture = 0, mesh = 0, pose_correctives = 0;
 };
 
 // The avatar packed in memory with a setting (format/avatar_pack.h); sizes per part.
@@ -128,7 +131,9 @@ std::vector<PackSetting> default_pack_settings(int trained_texture_size, std::st
                                                int default_quality = 0);
 
 // The unpacked avatar is rendered the way `haha render --model` does: when the file carries
-// no pose correctives, the original body's are used, so only quantization is measured.
+// no pose correctives, the original body's are used (but not for the setting
+// pose_correctives "none": a loader without the body model); embedded ones (the default)
+// are measured with the rest.
 std::vector<PackPoint> sweep_packing(const Avatar& original, const std::vector<PackSetting>& settings,
                                      const BenchEval& ev,
                                      const std::function<void(const std::string&)>& log);

@@ -14,9 +14,9 @@
 
 HAHA_COMMAND(pack) {
   struct Opts {
-    std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg";
+    std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg", corrective_codec;
     int texture_size = 0, texture_quality = 95;
-    bool lossless = false, splats = false, correctives = false, keep_face_order = false, normals = false;
+    bool lossless = false, splats = false, correctives = false, no_correctives = false, keep_face_order = false, normals = false;
     int lod_tiers = 1;
   };
   auto o = std::make_shared<Opts>();
@@ -43,7 +43,13 @@ HAHA_COMMAND(pack) {
                   "store the Gaussians in N importance tiers (prefixes N/2^(T-1) .. all) so a loader can take a prefix; each "
                   "prefix's PSNR against the full avatar is measured and stored");
   sub->add_flag("--pose-correctives", o->correctives,
-                "embed the body model's pose-corrective blend shapes (large) so the loader reposes exactly like the trainer");
+                "embed the pose correctives dense (int16; float32 with --lossless, exact; megabytes) instead of the "
+                "compact default (lossless packs embed none without this flag)");
+  sub->add_flag("--no-pose-correctives", o->no_correctives,
+                "embed no pose correctives (a loader then needs the body model to repose like the trainer)");
+  sub->add_option("--pose-corrective-codec", o->corrective_codec,
+                  "compact pose correctives: t=threshold (relative block norm kept per joint), r=rank per joint (1..9), "
+                  "b=coefficient bits (0 = float32), e=energy kept per joint (sets the rank, at most r), e.g. t=0.02,r=4,e=0.995,b=6");
   sub->callback([o] {
     namespace fs = std::filesystem;
     haha::Avatar avatar;
@@ -60,7 +66,13 @@ HAHA_COMMAND(pack) {
     opt.texture_size = o->texture_size;
     opt.texture_quality = o->texture_quality;
     opt.khr_gaussian_splatting = o->splats;
-    opt.pose_correctives = o->correctives;
+    if (o->correctives && o->no_correctives) haha::fail("--pose-correctives", "cannot be combined with --no-pose-correctives");
+    opt.pose_correctives = o->correctives      ? haha::PoseCorrectives::dense
+                           : o->no_correctives ? haha::PoseCorrectives::none
+                                               : haha::PoseCorrectives::compact;
+    if (!o->corrective_codec.empty()) {
+      opt.pose_corrective_codec = haha::parse_pose_corrective_codec(o->corrective_codec, "--pose-corrective-codec");
+    }
     opt.keep_face_order = o->keep_face_order;
     opt.normals = o->normals;
     opt.lod_tiers = o->lod_tiers;
@@ -75,8 +87,8 @@ HAHA_COMMAND(pack) {
       haha::fail("--lossless", "stores float32 everywhere; it cannot be combined with --gaussian-bits/--mesh-bits");
     }
     const haha::PackedSizes s = haha::write_avatar_glb(avatar, o->out, opt);
-    std::printf("%s: %zu bytes: %d Gaussians %zu B, mesh (%d vertices, %d faces) %zu B, texture %zu B%s\n", o->out.c_str(),
-                s.total, s.num_gaussians, s.gaussians, s.num_vertices, s.num_faces, s.mesh, s.texture,
-                o->lossless ? " (+ exact copy)" : "");
+    std::printf("%s: %zu bytes: %d Gaussians %zu B, mesh (%d vertices, %d faces) %zu B, texture %zu B%s, pose correctives %zu B\n",
+                o->out.c_str(), s.total, s.num_gaussians, s.gaussians, s.num_vertices, s.num_faces, s.mesh, s.texture,
+                o->lossless ? " (+ exact copy)" : "", s.pose_correctives);
   });
 }

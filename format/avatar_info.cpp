@@ -128,6 +128,11 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
   j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
                           {"trainedWith", i.trained_with_pose_correctives},
                           {"topologyCrc32", i.topology_crc32}};
+  if (i.pose_correctives == "sparse_lowrank") {
+    j["poseCorrectives"]["blocks"] = i.pose_corrective_blocks;
+    j["poseCorrectives"]["rank"] = i.pose_corrective_rank;
+    j["poseCorrectives"]["quantizationBits"] = i.pose_corrective_bits;
+  }
   j["khrGaussianSplatting"] = i.splats;
   j["subject"] = {{"betas", u.avatar.betas}, {"expression", u.avatar.expression},
                   {"faceScaleDivisor", u.avatar.face_scale_divisor}};
@@ -177,8 +182,12 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   o << "  texture       " << i.texture_mime << " " << i.texture_width << " x " << i.texture_height << " (" << bytes(s.texture) << ")";
   if (i.texture_exact) o << " + exact float32 copy (" << bytes(s.texture_exact) << ")";
   o << "\n";
-  o << "  correctives   " << (i.pose_correctives.empty() ? std::string("not embedded") : i.pose_correctives + " (" + bytes(s.pose_correctives) + ")")
-    << (i.trained_with_pose_correctives ? "; trained with them" : "; trained without") << "\n";
+  o << "  correctives   " << (i.pose_correctives.empty() ? std::string("not embedded") : i.pose_correctives + " (" + bytes(s.pose_correctives) + ")");
+  if (i.pose_correctives == "sparse_lowrank") {
+    o << ": " << i.pose_corrective_blocks << " (vertex, joint) blocks, rank " << i.pose_corrective_rank << ", "
+      << (i.pose_corrective_bits > 0 ? std::to_string(i.pose_corrective_bits) + "-bit" : std::string("float32")) << " coefficients";
+  }
+  o << (i.trained_with_pose_correctives ? "; trained with them" : "; trained without") << "\n";
   o << "  splats        " << (i.splats ? "KHR_gaussian_splatting rest-pose primitive (" + bytes(s.splats) + ")" : std::string("none")) << "\n";
   o << "  JSON          " << bytes(s.json) << "\n";
   o << "  extensions    used:";

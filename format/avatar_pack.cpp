@@ -631,6 +631,30 @@ void add_pose_correctives(GlbDoc& d, const BodyModel& b, bool lossless) {
           {"scaleBufferView", sv}, {"scaleCrc32", d.bin.view_crc(sv)}};
     d.sz.pose_correctives = d.bin.view_size(v) + d.bin.view_size(sv);
   }
+  pc["encoding"] = "dense";
+  d.ext["body"]["poseCorrectives"] = pc;
+}
+
+// The pose correctives as kept (joint, vertex) blocks of a per-joint low-rank basis
+// (format/pose_correctives_codec.h): a Draco point cloud plus float32 mixing rows.
+void add_compact_pose_correctives(GlbDoc& d, const BodyModel& b, const PoseCorrectiveCodec& codec) {
+  const EncodedPoseCorrectives e = encode_pose_correctives(b.posedirs, b.num_verts, codec);
+  const int mv = d.bin.add_view(e.mixing.data(), e.mixing.size() * sizeof(float));
+  Json pc = {{"encoding", "sparse_lowrank"},
+             {"count", e.count},
+             {"rank", e.rank},
+             {"threshold", codec.threshold},
+             {"quantizationBits", codec.bits},
+             {"mixingBufferView", mv},
+             {"mixingCrc32", d.bin.view_crc(mv)}};
+  d.sz.pose_correctives = d.bin.view_size(mv);
+  if (e.count > 0) {  // Draco has no empty point cloud
+    const int v = d.bin.add_view(e.draco.data(), e.draco.size());
+    pc["bufferView"] = v;
+    pc["crc32"] = d.bin.view_crc(v);
+    pc["attributes"] = {{"JOINT", e.ids[0]}, {"VERTEX", e.ids[1]}, {"COEF_X", e.ids[2]}, {"COEF_Y", e.ids[3]}, {"COEF_Z", e.ids[4]}};
+    d.sz.pose_correctives += d.bin.view_size(v);
+  }
   d.ext["body"]["poseCorrectives"] = pc;
 }
 
@@ -710,7 +734,11 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   add_texture(d, a, opt);
   add_gaussians(d, a, opt);
   if (opt.lossless) add_exact_texture(d, a);
-  if (opt.pose_correctives) add_pose_correctives(d, b, opt.lossless);
+  if (opt.pose_correctives == PoseCorrectives::dense) {
+    add_pose_correctives(d, b, opt.lossless);
+  } else if (opt.pose_correctives == PoseCorrectives::compact && !opt.lossless && !b.posedirs.empty()) {
+    add_compact_pose_correctives(d, b, opt.pose_corrective_codec);
+  }
   if (opt.khr_gaussian_splatting && a.gaussians.size() > 0) add_rest_splats(d, a, rest);  // glTF has no empty accessor
 
   Json gltf;

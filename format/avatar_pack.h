@@ -11,6 +11,7 @@
 
 #include "body/avatar.h"
 #include "format/image_codec.h"
+#include "format/pose_correctives_codec.h"
 
 namespace haha {
 
@@ -48,6 +49,13 @@ struct MeshBits {
 GaussianBits parse_gaussian_bits(const std::string& text, const std::string& option, GaussianBits base = {});
 MeshBits parse_mesh_bits(const std::string& text, const std::string& option, MeshBits base = {});
 
+// Which pose correctives a file embeds (spec section 3, body.poseCorrectives).
+enum class PoseCorrectives {
+  none,     // a loader needs the body model to repose like the trainer
+  compact,  // "sparse_lowrank" (format/pose_correctives_codec.h): a few kB, the default
+  dense,    // every value: int16 with a per-feature scale, float32 with `lossless` (large)
+};
+
 struct PackOptions {
   // Raw float32 everywhere, a float32 copy of the texture and of the UVs: every trained
   // parameter and every stored body array comes back bit-exact. Ignores the bit settings.
@@ -64,10 +72,12 @@ struct PackOptions {
   // (for splat-aware viewers). Note: the Khronos validator (2.0.0-dev.3.10) reports its
   // attribute names as errors; see spec.md.
   bool khr_gaussian_splatting = false;
-  // Embeds the body model's pose-corrective blend shapes (posedirs) so the runtime
-  // reposes exactly like the trainer (int16, or float32 with `lossless`). Large
-  // (V x 3 x 486 values); off by default.
-  bool pose_correctives = false;
+  // Pose-corrective blend shapes (posedirs) of the body, so the runtime reposes like the
+  // trainer without the body model. Lossy packs embed them compactly by default; lossless
+  // packs embed nothing unless `dense` (float32, exact) is asked for. Bodies without
+  // posedirs embed nothing.
+  PoseCorrectives pose_correctives = PoseCorrectives::compact;
+  PoseCorrectiveCodec pose_corrective_codec;
   // Lossy mode drops skinning weights below this and renormalises (lossless keeps all).
   float min_skin_weight = 1e-4f;
   // Draco's sequential mesh encoding, which keeps the body's face order (about 3x larger

@@ -14,6 +14,7 @@
 #include "format/gaussian_lod.h"
 #include "format/glb.h"
 #include "format/image_codec.h"
+#include "format/pose_correctives_codec.h"
 
 namespace haha {
 
@@ -340,6 +341,10 @@ class AvatarReader {
     const Json* pc = find_member(jb, "poseCorrectives");
     if (!pc) return;
     const std::string what = B + ".poseCorrectives";
+    std::string encoding = "dense";  // version 1 and early version 2 files name no encoding
+    if (const Json* e = find_member(*pc, "encoding")) encoding = as_string(*e, where_, what + ".encoding");
+    if (encoding == "sparse_lowrank") return compact_pose_correctives(*pc, what);
+    if (encoding != "dense") fail(where_, what + ".encoding: unknown '" + encoding + "'");
     const std::string type = as_string(member(*pc, "componentType", where_, what), where_, what + ".componentType");
     const size_t count = size_t(V_) * 3 * kNumPoseFeatures;
     const glb::ByteSpan s = rd_.view(*pc, "bufferView", "crc32", what);
@@ -365,6 +370,35 @@ class AvatarReader {
       info_.sizes.pose_correctives = s.size + sc.size;
     }
     info_.pose_correctives = type;
+  }
+
+  // "sparse_lowrank": kept (joint, vertex) blocks of a per-joint low-rank basis, expanded
+  // to dense posedirs for LBS (format/pose_correctives_codec.h).
+  void compact_pose_correctives(const Json& pc, const std::string& what) {
+    const int64_t count = rd_.integer(pc, "count", what, 0, int64_t(V_) * (kNumJoints - 1));
+    const int rank = int(rd_.integer(pc, "rank", what, 1, 9));
+    const int bits = int(rd_.integer(pc, "quantizationBits", what, 0, 30));
+    const glb::ByteSpan mix = rd_.view(pc, "mixingBufferView", "mixingCrc32", what + " mixing rows");
+    if (mix.size != size_t(kNumJoints - 1) * rank * 9 * 4) fail(where_, what + ": wrong mixing-row byte length");
+    std::vector<float> mixing(mix.size / 4);
+    std::memcpy(mixing.data(), mix.data, mix.size);
+    info_.sizes.pose_correctives = mix.size;
+    glb::ByteSpan s{};
+    int ids[5] = {-1, -1, -1, -1, -1};
+    if (count > 0) {
+      s = rd_.view(pc, "bufferView", "crc32", what);
+      const Json& attrs = member(pc, "attributes", where_, what);
+      const char* names[5] = {"JOINT", "VERTEX", "COEF_X", "COEF_Y", "COEF_Z"};
+      for (int i = 0; i < 5; ++i) ids[i] = draco_id(attrs, names[i], what + ".attributes");
+      info_.sizes.pose_correctives += s.size;
+    } else if (find_member(pc, "bufferView")) {
+      fail(where_, what + ": a point cloud for zero blocks");
+    }
+    a_.body.posedirs = decode_pose_correctives(s.data, s.size, int(count), rank, ids, mixing.data(), int(V_), where_, what);
+    info_.pose_correctives = "sparse_lowrank";
+    info_.pose_corrective_blocks = int(count);
+    info_.pose_corrective_rank = rank;
+    info_.pose_corrective_bits = bits;
   }
 
   // Betas and expression (already baked into the mesh), face frame scale, depth test.

@@ -44,7 +44,10 @@ struct AvatarFileInfo {
   std::string texture_mime;
   int texture_width = 0, texture_height = 0;
   bool texture_exact = false;                // lossless float copy present
-  std::string pose_correctives;              // "", "int16" or "float32" (embedded)
+  std::string pose_correctives;              // "", "int16", "float32" or "sparse_lowrank" (embedded)
+  int pose_corrective_blocks = 0;            // sparse_lowrank: kept (joint, vertex) blocks,
+  int pose_corrective_rank = 0;              // mixing rows per joint,
+  int pose_corrective_bits = 0;              // coefficient bits (0 = float32)
   bool trained_with_pose_correctives = false;  // the trainer applied them (loaders need the
                                                // body model's posedirs if not embedded)
   uint32_t topology_crc32 = 0;               // CRC-32 of the faces (int32, little-endian)

@@ -251,7 +251,7 @@ window.hahaViewer = {
   ready: viewer.load().then(() => {
     if (params.get('loop') !== '0') viewer.loop();
     return { vertices: viewer.avatar.V, faces: viewer.avatar.F, gaussians: viewer.avatar.N, frames: viewer.motion.frames.length,
-             floatBlend: viewer.r.floatBlend, loadMs: viewer.loadMs };
+             floatBlend: viewer.r.floatBlend, loadMs: viewer.loadMs, poseCorrectives: !!viewer.avatar.posedirs };
   }).catch((e) => { status(`error: ${e.message}`); console.error(e); throw e; }),
   setFrame(i) { viewer.frame = i; viewer.playing = false; viewer.dirty = true; },
   setGaussians(on) { viewer.r.gaussians = on; viewer.dirty = true; },

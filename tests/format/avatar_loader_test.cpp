@@ -79,9 +79,9 @@ TEST(FormatLoader, PackedAvatarsReposeLikeTheOriginal) {
   const AvatarRuntime original(a);  // shaped by the runtime from betas/expression
   PackOptions lossless;
   lossless.lossless = true;
-  lossless.pose_correctives = true;
+  lossless.pose_correctives = haha::PoseCorrectives::dense;
   PackOptions lossy;
-  lossy.pose_correctives = true;
+  lossy.pose_correctives = haha::PoseCorrectives::dense;
   PackOptions fine_weights = lossy;
   fine_weights.mesh_bits.weight = 16;
   const AvatarRuntime exact = runtime_of(a, lossless), packed = runtime_of(a, lossy), packed16 = runtime_of(a, fine_weights);
@@ -112,7 +112,7 @@ TEST(FormatLoader, QuantizedPackRendersWithin45dBOfTheOriginal) {
   const Avatar a = test::make_test_avatar(600, 7, 64, 64);
   const AvatarRuntime original(a);
   PackOptions opt;
-  opt.pose_correctives = true;  // the comparison is about quantization, not correctives
+  opt.pose_correctives = haha::PoseCorrectives::dense;  // the comparison is about quantization, not correctives
   opt.gaussian_bits = parse_gaussian_bits("offset=12,rotation=10,scale=8,color=7,opacity=7", "test");
   const AvatarRuntime packed = runtime_of(a, opt);
   const Camera cam = front_camera(96);
@@ -139,7 +139,7 @@ TEST(FormatLoader, ExternalPoseCorrectivesMatchEmbeddedOnes) {
   const Avatar a = test::make_test_avatar(50);
   PackOptions with, without;
   with.lossless = without.lossless = true;
-  with.pose_correctives = true;
+  with.pose_correctives = haha::PoseCorrectives::dense;
   const AvatarRuntime embedded = runtime_of(a, with);
   AvatarRuntime external = runtime_of(a, without);
   EXPECT_TRUE(embedded.has_pose_correctives());
@@ -162,7 +162,7 @@ TEST(FormatLoader, DepthMarginTravelsThroughTheFileAndReachesTheRender) {
   a.depth_margin = 0.05f;  // Gaussians up to 5 cm behind the surface show
   PackOptions lossless;
   lossless.lossless = true;
-  lossless.pose_correctives = true;  // reposes like the original: only the margin is compared
+  lossless.pose_correctives = haha::PoseCorrectives::dense;  // reposes like the original: only the margin is compared
   const std::vector<uint8_t> bytes = pack_avatar(a, lossless);
   const UnpackedAvatar u = unpack_avatar(bytes.data(), bytes.size(), "mem.glb");
   EXPECT_EQ(u.avatar.depth_margin, 0.05f);

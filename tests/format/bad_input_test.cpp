@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "core/error.h"
@@ -173,6 +174,33 @@ TEST(FormatBadInput, LodTiers) {
     std::swap(g["tiers"][0], g["tiers"][2]);
   });
   EXPECT_EQ(unpack_avatar(swapped.data(), swapped.size(), kName).avatar.gaussians.size(), 200);
+}
+
+TEST(FormatBadInput, CompactPoseCorrectives) {
+  const auto pc = [](Json& j) -> Json& { return j["extensions"]["HAHA_gaussian_avatar"]["body"]["poseCorrectives"]; };
+  ASSERT_EQ(unpack_avatar(fx().lossy.data(), fx().lossy.size(), kName).info.pose_correctives, "sparse_lowrank");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["encoding"] = "wavelet"; }), "encoding: unknown 'wavelet'");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["rank"] = 0; }), "rank");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["rank"] = 2; }), "wrong mixing-row byte length");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["count"] = pc(j)["count"].get<int>() - 1; }), "points, the file says");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["count"] = -1; }), "count");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["count"] = 0; }), "a point cloud for zero blocks");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["mixingCrc32"] = pc(j)["mixingCrc32"].get<int64_t>() ^ 1; }),
+               "checksum mismatch");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["attributes"].erase("COEF_Y"); }), "COEF_Y");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { std::swap(pc(j)["attributes"]["JOINT"], pc(j)["attributes"]["COEF_X"]); }),
+               "poseCorrectives");
+  expect_error(edited(fx().lossy, [&](Json& j, auto&) { pc(j)["bufferView"] = j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["bufferView"]; }),
+               "checksum mismatch");
+  // NaN mixing rows with a matching checksum.
+  expect_error(edited(fx().lossy, [&](Json& j, std::vector<uint8_t>& bin) {
+                 const Json& v = j["bufferViews"][pc(j)["mixingBufferView"].get<size_t>()];
+                 const size_t off = v.value("byteOffset", size_t(0));
+                 const float nan = std::nanf("");
+                 std::memcpy(&bin[off], &nan, 4);
+                 pc(j)["mixingCrc32"] = glb::crc32(&bin[off], v["byteLength"].get<size_t>());
+               }),
+               "non-finite mixing row");
 }
 
 TEST(FormatBadInput, MissingExtensionOrUnsupportedRequirement) {

@@ -36,7 +36,7 @@ TEST(FormatRoundTrip, LosslessRestoresEveryParameterBitExact) {
   const Avatar a = test::make_test_avatar();
   PackOptions opt;
   opt.lossless = true;
-  opt.pose_correctives = true;
+  opt.pose_correctives = haha::PoseCorrectives::dense;
   const std::vector<uint8_t> glb = pack_avatar(a, opt);
   const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
   const Avatar& b = u.avatar;
@@ -150,14 +150,67 @@ TEST(FormatRoundTrip, DefaultPackIsWithinQuantizationBounds) {
   for (size_t i = 0; i < a.body.weights.size(); ++i) ASSERT_NEAR(a.body.weights[i], u.avatar.body.weights[i], 2e-3f) << i;
   EXPECT_EQ(sz.skin_sets, 2);  // up to 6 influences per vertex: two JOINTS/WEIGHTS sets
   EXPECT_EQ(sz.max_influences, u.info.sizes.max_influences);
-  EXPECT_TRUE(u.avatar.body.posedirs.empty());  // not embedded by default
+  EXPECT_EQ(u.info.pose_correctives, "sparse_lowrank");  // embedded compactly by default (bound: below)
   EXPECT_FALSE(u.info.texture_exact);
+}
+
+// Compact pose correctives at full rank (no approximation): a block below the threshold
+// (norm <= t M_j, M_j the joint's largest block norm) comes back zero; the kept blocks of a
+// joint, with coefficients in [-1, 1] quantized to half a step 1 / (2^b - 1) and the mixing
+// rows of norm <= M_j (refitted by least squares, which cannot do worse than the SVD's
+// rows), come back within sqrt(3 K 9) M_j / (2^b - 1) in Frobenius norm (+ float slack).
+TEST(FormatRoundTrip, CompactPoseCorrectivesWithinBound) {
+  const Avatar a = test::make_test_avatar(50);
+  PackOptions opt;
+  opt.pose_corrective_codec.threshold = 0.3;
+  opt.pose_corrective_codec.rank = 9;
+  opt.pose_corrective_codec.energy = 1.0;
+  for (int bits : {4, 8}) {
+    opt.pose_corrective_codec.bits = bits;
+    const std::vector<uint8_t> glb = pack_avatar(a, opt);
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+    EXPECT_EQ(u.info.pose_correctives, "sparse_lowrank");
+    EXPECT_EQ(u.info.pose_corrective_rank, 9);
+    const std::vector<float>& p = a.body.posedirs;
+    const std::vector<float>& q = u.avatar.body.posedirs;
+    ASSERT_EQ(p.size(), q.size());
+    const int V = a.body.num_verts;
+    int kept_total = 0;
+    for (int j = 0; j < kNumJoints - 1; ++j) {
+      auto block_sq = [&](const std::vector<float>& x, const std::vector<float>* y, int v) {
+        double s = 0;
+        for (int c = 0; c < 3; ++c)
+          for (int k = 0; k < 9; ++k) {
+            const size_t i = (size_t(v) * 3 + size_t(c)) * kNumPoseFeatures + size_t(9 * j + k);
+            const double d = double(x[i]) - (y ? double((*y)[i]) : 0.0);
+            s += d * d;
+          }
+        return s;
+      };
+      double M = 0;
+      for (int v = 0; v < V; ++v) M = std::max(M, std::sqrt(block_sq(p, nullptr, v)));
+      double err_sq = 0;
+      int K = 0;
+      for (int v = 0; v < V; ++v) {
+        if (std::sqrt(block_sq(p, nullptr, v)) > 0.3 * M) {
+          ++K;
+          err_sq += block_sq(p, &q, v);
+        } else {
+          ASSERT_EQ(block_sq(q, nullptr, v), 0.0) << "joint " << j + 1 << " vertex " << v;
+        }
+      }
+      kept_total += K;
+      const double bound = std::sqrt(27.0 * K) * M / double((1 << bits) - 1) + 1e-5 * M;
+      EXPECT_LE(std::sqrt(err_sq), bound) << "joint " << j + 1 << ", " << bits << " bits";
+    }
+    EXPECT_EQ(u.info.pose_corrective_blocks, kept_total);
+  }
 }
 
 TEST(FormatRoundTrip, PoseCorrectivesInt16WithinHalfStep) {
   const Avatar a = test::make_test_avatar(50);
   PackOptions opt;
-  opt.pose_correctives = true;
+  opt.pose_correctives = haha::PoseCorrectives::dense;
   const std::vector<uint8_t> glb = pack_avatar(a, opt);
   const Avatar b = unpack_avatar(glb.data(), glb.size(), "mem.glb").avatar;
   ASSERT_EQ(a.body.posedirs.size(), b.body.posedirs.size());

@@ -14,6 +14,7 @@
 #include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
+#include "support/format_dense_correctives.h"
 #include "support/format_realistic_avatar.h"
 
 namespace haha {
@@ -123,18 +124,18 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
     o.lossless = true;
     rows.push_back({"lossless", o});
   }
-  std::printf("%-28s %10s %10s %9s %9s %9s %8s\n", "option", "file B", "G+tex B", "gauss B", "tex B", "mesh B", "PSNR dB");
+  std::printf("%-28s %10s %10s %9s %9s %9s %9s %8s\n", "option", "file B", "G+tex B", "gauss B", "tex B", "mesh B", "corr B", "PSNR dB");
   for (const Row& row : rows) {
     PackedSizes sz;
     const std::vector<uint8_t> bytes = pack_avatar(a, row.opt, &sz);
     const UnpackedAvatar u = unpack_avatar(bytes.data(), bytes.size(), "realistic.glb");
-    // Pose correctives from the body model (what `haha render --model` does): the rows
-    // measure the packing, the last line the cost of reposing without correctives.
+    // The file's own pose correctives (compact, embedded by default); the body model's
+    // where a file has none (what `haha render --model` does: lossless packs).
     AvatarRuntime rt(u.avatar);
-    rt.set_pose_correctives(a.body);
+    if (!rt.has_pose_correctives()) rt.set_pose_correctives(a.body);
     const double db = psnr(ref, render_all(rt));
-    std::printf("%-28s %10zu %10zu %9zu %9zu %9zu %8.2f\n", row.name.c_str(), sz.total, sz.gaussians + sz.texture,
-                sz.gaussians, sz.texture, sz.mesh, db);
+    std::printf("%-28s %10zu %10zu %9zu %9zu %9zu %9zu %8.2f\n", row.name.c_str(), sz.total, sz.gaussians + sz.texture,
+                sz.gaussians, sz.texture, sz.mesh, sz.pose_correctives, db);
     RecordProperty(row.name + " bytes", std::to_string(sz.total));
     RecordProperty(row.name + " psnr", std::to_string(db));
     if (row.name.rfind("default", 0) == 0) {
@@ -158,9 +159,28 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
     }
   }
   {
-    const std::vector<uint8_t> bytes = pack_avatar(a, PackOptions{});
+    PackOptions o;
+    o.pose_correctives = PoseCorrectives::none;
+    PackedSizes sz;
+    const std::vector<uint8_t> bytes = pack_avatar(a, o, &sz);
     const AvatarRuntime rt(unpack_avatar(bytes.data(), bytes.size(), "realistic.glb").avatar);
-    std::printf("default pack reposed WITHOUT pose correctives: %.2f dB\n", psnr(ref, render_all(rt)));
+    std::printf("--no-pose-correctives (%zu B), reposed without the body model: %.2f dB\n", sz.total, psnr(ref, render_all(rt)));
+  }
+  {
+    // The same avatar on the dense stand-in for SMPL-X's correctives.
+    Avatar d = a;
+    test::add_dense_pose_correctives(d.body);
+    const Renders dref = render_all(AvatarRuntime(d));
+    for (PoseCorrectives pc : {PoseCorrectives::compact, PoseCorrectives::none}) {
+      PackOptions o;
+      o.pose_correctives = pc;
+      PackedSizes sz;
+      const std::vector<uint8_t> bytes = pack_avatar(d, o, &sz);
+      const AvatarRuntime rt(unpack_avatar(bytes.data(), bytes.size(), "dense.glb").avatar);
+      std::printf("dense stand-in correctives, %s: file %zu B (correctives %zu B), %.2f dB\n",
+                  pc == PoseCorrectives::none ? "--no-pose-correctives" : "default", sz.total, sz.pose_correctives,
+                  psnr(dref, render_all(rt)));
+    }
   }
   std::printf("(%.1f s)\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }

@@ -93,11 +93,11 @@ TEST_F(FormatValidator, EveryPackVariantHasZeroErrors) {
   expect_no_errors(write("default.glb", a, PackOptions{}), F);
   PackOptions lossless;
   lossless.lossless = true;
-  lossless.pose_correctives = true;
+  lossless.pose_correctives = haha::PoseCorrectives::dense;
   expect_no_errors(write("lossless.glb", a, lossless), F);
   PackOptions jpg;
   jpg.texture_codec = TextureCodec::jpg;
-  jpg.pose_correctives = true;
+  jpg.pose_correctives = haha::PoseCorrectives::dense;
   expect_no_errors(write("jpg.glb", a, jpg), F);
   PackOptions webp;
   webp.texture_codec = TextureCodec::webp;
@@ -142,7 +142,7 @@ TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
   if (std::system("python3 -c 'import jsonschema' > /dev/null 2>&1") != 0) GTEST_SKIP() << "python3 jsonschema not installed";
   PackOptions o;
   o.lossless = true;
-  o.pose_correctives = true;
+  o.pose_correctives = haha::PoseCorrectives::dense;
   o.khr_gaussian_splatting = true;
   const fs::path p = write("schema.glb", test::make_test_avatar(50), o);
   const fs::path q = write("schema_default.glb", test::make_test_avatar(50), PackOptions{});

@@ -63,9 +63,11 @@ struct Fixture {
   Fixture() {
     PackOptions o;
     o.lossless = true;
-    o.pose_correctives = true;
+    o.pose_correctives = haha::PoseCorrectives::dense;
     lossless = pack_avatar(avatar, o);
-    lossy_no_correctives = pack_avatar(avatar, PackOptions{});
+    PackOptions bare;
+    bare.pose_correctives = PoseCorrectives::none;  // the default embeds them compactly
+    lossy_no_correctives = pack_avatar(avatar, bare);
     lossless_path = tmp_dir() / "lossless.glb";
     lossy_path = tmp_dir() / "lossy.glb";
     write_bytes(lossless_path, lossless);
@@ -305,6 +307,15 @@ TEST(RuntimeCApi, BodyModelSuppliesMissingPoseCorrectives) {
   ASSERT_EQ(haha_avatar_get_info(bare.p, &info), HAHA_OK);
   EXPECT_EQ(info.has_pose_correctives, 0);
   EXPECT_EQ(info.missing_pose_correctives, 1);
+
+  // The default pack embeds them (compact): nothing missing without the model.
+  const fs::path compact = tmp_dir() / "compact.glb";
+  write_bytes(compact, pack_avatar(fx().avatar, PackOptions{}));
+  AvatarHandle embedded;
+  embedded.p = load_ok(compact);
+  ASSERT_EQ(haha_avatar_get_info(embedded.p, &info), HAHA_OK);
+  EXPECT_EQ(info.has_pose_correctives, 1);
+  EXPECT_EQ(info.missing_pose_correctives, 0);
 
   const fs::path model = tmp_dir() / "model.npz";
   BodyModel body = fx().avatar.body;

@@ -26,6 +26,56 @@ const DEGENERATE_REL = 1e-6, TINY = 1e-20;  // body/face_frames.h kFaceDegenerat
 const FRAME = 17;                              // doubles per face frame: t(3) R(9) k q(4)
 const RODRIGUES_TAYLOR_S = 1e-4;               // below: series (rotation.h); any small value works in double
 
+// Compact pose correctives (format/pose_correctives_codec.h): a Draco point cloud of kept
+// (joint, vertex) blocks with `rank` coefficients per coordinate, and float32 mixing rows
+// (54, rank, 9); expanded to dense posedirs with the C++ decoder's sums (float64 in k order,
+// rounded to float32).
+async function decodeSparseLowRank(glb, pc, V, decode, fail) {
+  const R = pc.rank, count = pc.count;
+  if (!(Number.isInteger(R) && R >= 1 && R <= 9)) fail('body.poseCorrectives.rank: must be in 1..9');
+  if (!(Number.isInteger(count) && count >= 0)) fail('body.poseCorrectives.count: bad value');
+  const mb = glb.checkedView(pc.mixingBufferView, pc.mixingCrc32, 'body.poseCorrectives mixing rows');
+  if (mb.byteLength !== (NUM_JOINTS - 1) * R * 9 * 4) fail('body.poseCorrectives: wrong mixing-row byte length');
+  const mdv = new DataView(mb.buffer, mb.byteOffset, mb.byteLength);
+  const mix = new Float32Array((NUM_JOINTS - 1) * R * 9);
+  for (let i = 0; i < mix.length; i++) {
+    mix[i] = mdv.getFloat32(4 * i, true);
+    if (!Number.isFinite(mix[i])) fail('body.poseCorrectives: non-finite mixing row');
+  }
+  const pd = new Float32Array(V * 3 * NUM_POSE_FEATURES);
+  if (count === 0) return pd;
+  const bytes = glb.checkedView(pc.bufferView, pc.crc32, 'body.poseCorrectives');
+  const names = ['JOINT', 'VERTEX', 'COEF_X', 'COEF_Y', 'COEF_Z'];
+  const ids = {}, types = {};
+  for (const k of names) {
+    ids[k] = pc.attributes[k];
+    types[k] = k === 'JOINT' || k === 'VERTEX' ? 'Int32Array' : 'Float32Array';
+  }
+  const d = await decode(bytes, ids, types);
+  if (d.JOINT.length !== count) fail(`body.poseCorrectives: Draco stream has ${d.JOINT.length} points, the file says ${count}`);
+  const coef = [d.COEF_X, d.COEF_Y, d.COEF_Z];
+  let prev = -1;
+  for (let p = 0; p < count; p++) {
+    const j = d.JOINT[p], v = d.VERTEX[p];
+    if (j < 1 || j > NUM_JOINTS - 1) fail(`body.poseCorrectives: joint ${j} out of range [1, 54]`);
+    if (v < 0 || v >= V) fail(`body.poseCorrectives: vertex ${v} out of range [0, ${V})`);
+    const key = j * V + v;
+    if (key <= prev) fail('body.poseCorrectives: (joint, vertex) pairs not in strictly increasing order');
+    prev = key;
+    const m = (j - 1) * R * 9;
+    for (let c = 0; c < 3; c++) {
+      const cr = coef[c], base = (3 * v + c) * NUM_POSE_FEATURES + 9 * (j - 1);
+      for (let k = 0; k < R; k++) if (!Number.isFinite(cr[p * R + k])) fail('body.poseCorrectives: non-finite coefficient');
+      for (let s = 0; s < 9; s++) {
+        let acc = 0;
+        for (let k = 0; k < R; k++) acc += cr[p * R + k] * mix[m + k * 9 + s];
+        pd[base + s] = Math.fround(acc);
+      }
+    }
+  }
+  return pd;
+}
+
 export class Avatar {
   static async load(buffer, decode, name = 'avatar.glb') {
     const a = new Avatar();
@@ -149,10 +199,13 @@ export class Avatar {
     }
     this.restJoints = J;
 
-    // --- optional pose correctives (V, 3, 486) ---
+    // --- optional pose correctives (V, 3, 486): dense, or "sparse_lowrank" ---
     this.posedirs = null;
-    if (jb.poseCorrectives) {
+    if (jb.poseCorrectives && jb.poseCorrectives.encoding === 'sparse_lowrank') {
+      this.posedirs = await decodeSparseLowRank(glb, jb.poseCorrectives, V, decode, fail);
+    } else if (jb.poseCorrectives) {
       const pc = jb.poseCorrectives;
+      if (pc.encoding !== undefined && pc.encoding !== 'dense') fail(`body.poseCorrectives: unknown encoding ${pc.encoding}`);
       const bytes = glb.checkedView(pc.bufferView, pc.crc32, 'body.poseCorrectives');
       const n = V * 3 * NUM_POSE_FEATURES;
       const pd = new Float32Array(n);

@@ -84,6 +84,7 @@ function psnr(a, b, bg) {
 
 const t0 = Date.now();
 let avatar = opts.avatar && path.resolve(opts.avatar);
+const packedHere = !avatar;  // then the file embeds pose correctives (the default pack)
 let motion = opts.motion && path.resolve(opts.motion);
 if (!opts.haha) { console.error('viewer_test: --haha PATH is required (the reference renderer)'); process.exit(1); }
 if (!avatar) {
@@ -92,9 +93,9 @@ if (!avatar) {
   times.push(['train', run(['train', '--data', `${work}/data`, '--out', `${work}/run`, '--preset', 'tiny', 'resolution=64',
     's1.steps=50', 's1.densify.from=10', 's1.densify.until=40', 's1.densify.every=20', 's2.steps=30', 's2.texture_size=64',
     's3.steps=30', 's3.prune_every=20', 'log_every=1000'])]);
-  // Pose correctives embedded: the viewer then reposes exactly like the trainer.
-  // Two importance tiers: the viewer reads and joins both (haha pack --lod).
-  times.push(['pack', run(['pack', `${work}/run`, '--out', `${work}/avatar.glb`, '--pose-correctives', '--lod', '2'])]);
+  // Pose correctives embedded (compact, the default): the viewer decodes them and reposes
+  // like haha render. Two importance tiers: the viewer reads and joins both (haha pack --lod).
+  times.push(['pack', run(['pack', `${work}/run`, '--out', `${work}/avatar.glb`, '--lod', '2'])]);
   avatar = `${work}/avatar.glb`;
   console.log(`avatar: ${avatar} (${times.map(([k, s]) => `${k} ${s.toFixed(1)} s`).join(', ')})`);
 }
@@ -140,7 +141,9 @@ try {
   cam.K[1][2] += 0.0273 * size;
   fs.writeFileSync(`${work}/cam.json`, JSON.stringify(cam));
   console.log(`viewer: ${info.gaussians} Gaussians, ${info.vertices} vertices, ${info.frames} motion frames, ` +
-              `loaded in ${info.loadMs.toFixed(0)} ms, ${info.floatBlend ? 'float32' : 'half-float'} accumulation`);
+              `loaded in ${info.loadMs.toFixed(0)} ms, ${info.floatBlend ? 'float32' : 'half-float'} accumulation` +
+              `${info.poseCorrectives ? ', pose correctives' : ''}`);
+  if (packedHere && !info.poseCorrectives) { console.log('FAIL: the default pack embeds pose correctives; the viewer has none'); failed = true; }
 
   // Reference: haha render of motion frame `frame` (frames 0 and `frame` with --every).
   fs.rmSync(`${work}/ref`, { recursive: true, force: true });
