@@ -39,7 +39,7 @@ const char* const kJointNames[kNumJoints] = {
 
 Json float_array(const float* v, size_t n) {
   Json a = Json::array();
-  for (size_t i = 0; i < n; ++i) a.push_back(double(v[i]));  // float -> double is exact
+  for (size_t i = 0; i < n; ++i) a.push_back(glb::json_float(v[i]));
   return a;
 }
 
@@ -724,8 +724,8 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   d.ext["version"] = kAvatarFormatVersion;
   d.ext["subject"] = {{"betas", float_array(a.betas.data(), a.betas.size())},
                       {"expression", float_array(a.expression.data(), a.expression.size())}};
-  d.ext["faceFrame"] = {{"scaleDivisor", double(a.face_scale_divisor)}};
-  if (a.depth_margin != 0.0f) d.ext["depthTest"] = {{"margin", double(a.depth_margin)}};  // absent: exact
+  d.ext["faceFrame"] = {{"scaleDivisor", glb::json_float(a.face_scale_divisor)}};
+  if (a.depth_margin != 0.0f) d.ext["depthTest"] = {{"margin", glb::json_float(a.depth_margin)}};  // absent: exact
 
   // The parts, in file order.
   const RestBody rest = rest_body(a);

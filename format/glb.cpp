@@ -1,7 +1,9 @@
 #include "format/glb.h"
 
 #include <array>
+#include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 
 #include "core/error.h"
@@ -170,6 +172,16 @@ std::vector<float> as_float_array(const Json& v, const std::string& where, const
     out.push_back(f);
   }
   return out;
+}
+
+double json_float(float f) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, f, std::chars_format::scientific);  // fixed prints every digit of large values
+  *r.ptr = 0;
+  const double d = std::strtod(buf, nullptr);
+  // Rounding the decimal to double and then to float could in principle land on a tie the
+  // decimal alone would not; the exact double is the fallback.
+  return float(d) == f ? d : double(f);
 }
 
 const Json& element(const Json& root, const char* key, int64_t i, const std::string& where) {

@@ -66,6 +66,12 @@ std::string as_string(const Json& v, const std::string& where, const std::string
 std::vector<float> as_float_array(const Json& v, const std::string& where, const std::string& what,
                                   size_t max_len);
 
+// A float32 as a JSON number: the double nearest the shortest decimal that reads back as the
+// same float32. nlohmann then prints that decimal (at most 9 significant digits for over
+// 99 % of values; a double's 17 otherwise), and a reader parsing it as double and rounding
+// to float gets the value exactly.
+double json_float(float f);
+
 // Index `i` into the top-level array `key` (e.g. "accessors"), checked.
 const Json& element(const Json& root, const char* key, int64_t i, const std::string& where);
 
