@@ -379,6 +379,7 @@ std::string bench_json(const BenchResult& r, const std::vector<std::string>& plo
                   {"lossless", p.setting.lossless},
                   {"gaussian_bits", p.setting.gaussian_bits},
                   {"gaussian_bits_spec", p.setting.gaussian_bits_spec},
+                  {"mesh_bits_spec", p.setting.mesh_bits_spec},
                   {"texture_codec", p.setting.texture_codec},
                   {"texture_quality", p.setting.texture_quality},
                   {"texture_size", p.setting.texture_size},
@@ -590,6 +591,7 @@ BenchResult read_bench_json(const std::string& path) {
       p.setting.lossless = x.at("lossless");
       p.setting.gaussian_bits = x.at("gaussian_bits");
       p.setting.gaussian_bits_spec = x.value("gaussian_bits_spec", std::string());
+      p.setting.mesh_bits_spec = x.value("mesh_bits_spec", std::string());
       p.setting.texture_codec = x.at("texture_codec");
       p.setting.texture_quality = x.at("texture_quality");
       p.setting.texture_size = x.at("texture_size");

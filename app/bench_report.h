@@ -8,7 +8,7 @@
 //    "training": {stage_seconds[3], stage_steps[3], rows: [{name, gaussians, storage_bytes,
 //                 psnr, ssim, render_ms, train_seconds}]},
 //    "filtering": [{method, strength, gaussians, storage_bytes, psnr, ssim, render_ms, stage3_seconds}],
-//    "packing": [{name, group, lossless, gaussian_bits, texture_codec, texture_quality,
+//    "packing": [{name, group, lossless, gaussian_bits, gaussian_bits_spec, mesh_bits_spec, texture_codec, texture_quality,
 //                 texture_size, bytes, gaussian_bytes, texture_bytes, mesh_bytes, pack_ms,
 //                 decode_ms, psnr_vs_original, identical, psnr, ssim, psnr_cost}],
 //    "render": [{sweep, device, threads, resolution, gaussians, mesh, ms_median, ms_min, repeats}],

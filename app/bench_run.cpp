@@ -230,6 +230,17 @@ BenchResult run_bench(const BenchRunOptions& o) {
         parse_gaussian_bits(spec, "--gaussian-bit-sets");  // refuse a bad entry before measuring anything
         settings.push_back(p);
       }
+      std::istringstream msets(o.mesh_bit_sets);
+      for (std::string spec; std::getline(msets, spec, ';');) {
+        if (spec.empty()) continue;
+        PackSetting p;
+        p.name = "mesh " + spec;
+        p.group = "mesh allocation";
+        p.mesh_bits_spec = spec;
+        p.texture_codec = "png";  // lossless 8-bit: the mesh's cost alone
+        parse_mesh_bits(spec, "--mesh-bit-sets");  // refuse a bad entry before measuring anything
+        settings.push_back(p);
+      }
       std::istringstream csets(o.corrective_sets);
       for (std::string spec; std::getline(csets, spec, ';');) {
         if (spec.empty()) continue;

@@ -24,6 +24,7 @@ struct BenchRunOptions {
   std::string threads;        // CPU thread counts of the render sweep (empty: 1 and all)
   // Extra packing points: per-attribute Gaussian bits, ';'-separated ("offset=10,rotation=6;...").
   std::string gaussian_bit_sets;
+  std::string mesh_bit_sets;    // extra packing points: mesh Draco bits, ';'-separated
   std::string corrective_sets;  // extra packing points: pose-corrective codecs, ';'-separated
   int frames = 0, tto_steps = 0, repeats = 5, count_resolution = 512, retrain_steps = 0;
 };

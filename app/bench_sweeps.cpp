@@ -198,6 +198,7 @@ std::vector<uint8_t> pack_with_setting(const Avatar& a, const PackSetting& s, Pa
     g.offset = g.rotation = g.scale = g.color = g.opacity = s.gaussian_bits;
   }
   if (!s.gaussian_bits_spec.empty()) o.gaussian_bits = parse_gaussian_bits(s.gaussian_bits_spec, "--gaussian-bit-sets");
+  if (!s.mesh_bits_spec.empty()) o.mesh_bits = parse_mesh_bits(s.mesh_bits_spec, "--mesh-bit-sets");
   o.texture_codec = texture_codec_from_name(s.texture_codec);
   o.texture_quality = s.texture_quality;
   o.texture_size = s.texture_size;

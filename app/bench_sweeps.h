@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "body/avatar.h"
+#include "format/avatar_pack.h"
 #include "train/config.h"
 #include "train/evaluate.h"
 #include "train/trainer.h"
@@ -92,8 +93,9 @@ struct PackSetting {
   bool lossless = false;     // float32 everywhere (the bit-exact reference)
   int gaussian_bits = -1;    // every Gaussian attribute; -1 = the format's defaults
   std::string gaussian_bits_spec;  // per attribute ("offset=10,rotation=6"); overrides gaussian_bits
+  std::string mesh_bits_spec;      // mesh Draco bits ("position=14,weight=8"); "" = the format's defaults
   std::string texture_codec = "jpg";  // png | jpg | webp
-  int texture_quality = 95;
+  int texture_quality = PackOptions{}.texture_quality;
   int texture_size = 0;      // 0 = the trained size
   // Pose correctives: "" = the format's default (compact, default codec), "none", "dense",
   // or a compact codec "t=0.05,r=2,b=8" (format/pose_correctives_codec.h).

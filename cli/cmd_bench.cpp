@@ -32,6 +32,8 @@ HAHA_COMMAND(bench) {
   sub->add_option("--skip", o->skip, "sections to leave out: training,filtering,retrain,packing,render");
   sub->add_option("--gaussian-bit-sets", o->gaussian_bit_sets,
                   "extra packing points with per-attribute Gaussian bits, ';'-separated, e.g. \"offset=10,rotation=6;offset=12\"");
+  sub->add_option("--mesh-bit-sets", o->mesh_bit_sets,
+                  "extra packing points with mesh Draco bits, ';'-separated, e.g. \"position=14;position=15,weight=8\"");
   sub->add_option("--corrective-sets", o->corrective_sets,
                   "extra packing points with pose correctives: none, dense or a compact codec, ';'-separated, e.g. "
                   "\"none;t=0.05,r=2,b=8;t=0.1,r=1,b=6\"");

@@ -15,7 +15,7 @@
 HAHA_COMMAND(pack) {
   struct Opts {
     std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg", corrective_codec;
-    int texture_size = 0, texture_quality = 95;
+    int texture_size = 0, texture_quality = haha::PackOptions{}.texture_quality;
     bool lossless = false, splats = false, correctives = false, no_correctives = false, keep_face_order = false, normals = false;
     int lod_tiers = 1;
   };

@@ -97,17 +97,18 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
   ASSERT_GT(mean / double(ref.images[0].size()), 0.05);
 
   std::vector<Row> rows;
-  rows.push_back({"default (jpg q95, 512)", PackOptions{}});
-  auto tex = [&](const char* name, TextureCodec c, int size) {
+  const std::string q = " q" + std::to_string(PackOptions{}.texture_quality);
+  rows.push_back({"default (jpg" + q + ", 512)", PackOptions{}});
+  auto tex = [&](const std::string& name, TextureCodec c, int size) {
     PackOptions o;
     o.texture_codec = c;
     o.texture_size = size;
     rows.push_back({name, o});
   };
   tex("png 512", TextureCodec::png, 0);
-  tex("webp q95 512", TextureCodec::webp, 0);
-  tex("jpg q95 256", TextureCodec::jpg, 256);
-  tex("webp q95 256", TextureCodec::webp, 256);
+  tex("webp" + q + " 512", TextureCodec::webp, 0);
+  tex("jpg" + q + " 256", TextureCodec::jpg, 256);
+  tex("webp" + q + " 256", TextureCodec::webp, 256);
   {
     PackOptions o;
     o.gaussian_bits = {11, 9, 7, 6, 6};
