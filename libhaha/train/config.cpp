@@ -55,6 +55,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"checkpoint_every", K::Int, &c.checkpoint_every, "steps between checkpoints (0 = stage ends only)"});
   v.push_back({"log_every", K::Int, &c.log_every, "steps between progress lines"});
   v.push_back({"random_background", K::Bool, &c.random_background, "random background colour in stages 1 and 3"});
+  v.push_back({"lpips_crop", K::Int, &c.lpips_crop,
+               "side of the square crop around the person the LPIPS loss sees, as the authors (0 = whole frame)"});
 
   Stage0Config& s0 = c.s0;
   v.push_back({"s0.steps", K::Int, &s0.steps, "pose pre-fit to the masks: steps per frame (0 = off)"});

@@ -105,6 +105,7 @@ struct TrainConfig {
   int checkpoint_every = 500;    // steps (plus every stage end)
   int log_every = 50;            // progress lines
   bool random_background = true; // stages 1 and 3
+  int lpips_crop = 256;          // LPIPS-VGG loss on a square crop of this side around the person (0 = whole frame)
   Stage0Config s0{};
   Stage1Config s1{};
   Stage2Config s2{};

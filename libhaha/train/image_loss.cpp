@@ -1,5 +1,8 @@
 #include "train/image_loss.h"
 
+#include <algorithm>
+#include <cstddef>
+
 namespace haha {
 
 void LossTerms::add(const LossTerms& o, double s) {
@@ -33,12 +36,54 @@ double image_loss(const float* render, const float* gt, int H, int W, const floa
     total += w.sobel * v;
   }
   if (w.lpips > 0 && ctx.lpips) {
-    const double v = ctx.lpips->distance(render, gt, H, W, grad, float(w.lpips * scale));
+    const PixelWindow& c = ctx.lpips_window;
+    double v;
+    if (c.w <= 0 || (c.w == W && c.h == H)) {
+      v = ctx.lpips->distance(render, gt, H, W, grad, float(w.lpips * scale));
+    } else {
+      const size_t n = 3 * size_t(c.w) * size_t(c.h);
+      ctx.crop_render.resize(n);
+      ctx.crop_gt.resize(n);
+      for (int y = 0; y < c.h; ++y) {
+        const size_t src = 3 * ((size_t(c.y0) + size_t(y)) * size_t(W) + size_t(c.x0)), dst = 3 * size_t(y) * size_t(c.w);
+        std::copy_n(render + src, 3 * size_t(c.w), ctx.crop_render.begin() + ptrdiff_t(dst));
+        std::copy_n(gt + src, 3 * size_t(c.w), ctx.crop_gt.begin() + ptrdiff_t(dst));
+      }
+      ctx.crop_grad.assign(grad ? n : 0, 0.0f);
+      v = ctx.lpips->distance(ctx.crop_render.data(), ctx.crop_gt.data(), c.h, c.w, grad ? ctx.crop_grad.data() : nullptr,
+                              float(w.lpips * scale));
+      if (grad)
+        for (int y = 0; y < c.h; ++y) {
+          float* g = grad + 3 * ((size_t(c.y0) + size_t(y)) * size_t(W) + size_t(c.x0));
+          const float* s = ctx.crop_grad.data() + 3 * size_t(y) * size_t(c.w);
+          for (size_t i = 0; i < 3 * size_t(c.w); ++i) g[i] += s[i];
+        }
+    }
     terms.lpips += scale * v;
     total += w.lpips * v;
   }
   terms.total += scale * total;
   return scale * total;
+}
+
+PixelWindow person_crop(const float* mask, int H, int W, int side, double u, double v) {
+  PixelWindow all{0, 0, W, H};
+  if (side <= 0 || !mask) return all;
+  int x_lo = W, x_hi = -1, y_lo = H, y_hi = -1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (mask[size_t(y) * size_t(W) + size_t(x)] > 0.5f) {
+        x_lo = std::min(x_lo, x), x_hi = std::max(x_hi, x);
+        y_lo = std::min(y_lo, y), y_hi = std::max(y_hi, y);
+      }
+  if (x_hi < 0) return all;
+  const int s_w = std::min(side, W), s_h = std::min(side, H);
+  const int cx = x_lo + int(u * double(x_hi - x_lo + 1)), cy = y_lo + int(v * double(y_hi - y_lo + 1));
+  PixelWindow c;
+  c.w = s_w, c.h = s_h;
+  c.x0 = std::clamp(cx - s_w / 2, 0, W - s_w);
+  c.y0 = std::clamp(cy - s_h / 2, 0, H - s_h);
+  return c;
 }
 
 void composite_ground_truth(const float* rgb, const float* mask, int num_pixels, bool premultiplied,

@@ -19,14 +19,27 @@ struct LossTerms {
   void add(const LossTerms& o, double s);
 };
 
+// A rectangle of pixels; w == 0 means the whole image.
+struct PixelWindow {
+  int x0 = 0, y0 = 0, w = 0, h = 0;
+};
+
+// The LPIPS crop (the authors train LPIPS-VGG on 256 x 256 crops of the person, not full
+// frames): a square of side min(side, W, H) centred at the point (u, v) in [0, 1)^2 of the
+// bounding box of mask > 0.5, shifted into the image. An empty mask or side <= 0 gives the
+// whole image.
+PixelWindow person_crop(const float* mask, int H, int W, int side, double u, double v);
+
 struct ImageLossContext {
   LossScratch<float> scratch;
   LpipsNet<float>* lpips = nullptr;  // null: the LPIPS term is off
+  PixelWindow lpips_window;          // where LPIPS looks (default: the whole image)
+  std::vector<float> crop_render, crop_gt, crop_grad;
 };
 
 // Adds scale * d(weighted loss)/d(render) into grad (may be null) and the weighted terms
 // (times scale) into `terms`; returns the weighted sum (times scale). `weights` (H, W) is
-// an optional pixel mask for L2 / SSIM / edge (LPIPS sees the whole image).
+// an optional pixel mask for L2 / SSIM / edge; LPIPS sees ctx.lpips_window unmasked.
 double image_loss(const float* render, const float* gt, int H, int W, const float* weights, const LossWeights& w,
                   ImageLossContext& ctx, float* grad, float scale, LossTerms& terms);
 

@@ -35,7 +35,7 @@ namespace haha {
 namespace trainer_detail {
 
 // RNG streams (the stage is folded in).
-enum Stream : uint64_t { kFrameOrder = 1, kBackground = 2, kSplit = 3 };
+enum Stream : uint64_t { kFrameOrder = 1, kBackground = 2, kSplit = 3, kLpipsCrop = 4 };
 inline uint64_t stream(int stage, Stream s) { return uint64_t(stage) * 16 + uint64_t(s); }
 
 inline bool finite_all(const std::vector<float>& v) {
@@ -126,6 +126,19 @@ struct Trainer::Impl {
   void background(int s, int64_t k, float bg[3]) const {
     for (int c = 0; c < 3; ++c)
       bg[c] = cfg.random_background ? float(uniform01(cfg.seed, stream(s, kBackground), uint64_t(k) * 3 + uint64_t(c))) : 0.0f;
+  }
+
+  // Where the LPIPS loss of draw k (stage s, frame fi) looks: a crop around the person at a
+  // random point of the mask's bounding box (the whole frame without LPIPS or a crop size).
+  void place_lpips_crop(int s, int64_t k, int fi) {
+    if (!lctx.lpips || cfg.lpips_crop <= 0) {
+      lctx.lpips_window = {};
+      return;
+    }
+    const TrainFrame& f = in.frames[size_t(fi)];
+    lctx.lpips_window = person_crop(f.mask.empty() ? nullptr : f.mask.data(), f.camera.height, f.camera.width, cfg.lpips_crop,
+                                    uniform01(cfg.seed, stream(s, kLpipsCrop), uint64_t(k) * 2),
+                                    uniform01(cfg.seed, stream(s, kLpipsCrop), uint64_t(k) * 2 + 1));
   }
 
   SmplxParams frame_params(int fi) const {

@@ -110,6 +110,7 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
     render_avatar(req, rbuf);
     prepare_ground_truth(fi, bg);
     d_image.assign(3 * size_t(P), 0.0f);
+    place_lpips_crop(1, k, fi);
     image_loss(rbuf.image.data(), gt.data(), H, W, nullptr, w, lctx, d_image.data(), inv_b, terms);
     const float* d_alpha_ptr = nullptr;
     if (w.dice > 0) {

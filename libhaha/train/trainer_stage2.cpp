@@ -18,6 +18,7 @@ bool Trainer::Impl::step2(LossTerms& terms, std::string&) {
     sample_texture(tv, P, m.tri.data(), m.uv.data(), tex_color.data());
     prepare_ground_truth(fi, black);
     d_image.assign(3 * size_t(P), 0.0f);
+    place_lpips_crop(2, k, fi);
     image_loss(tex_color.data(), gt.data(), H, W, in.frames[size_t(fi)].mask.data(), w, lctx, d_image.data(), inv_b,
                terms);
     sample_texture_backward(tv, P, m.tri.data(), m.uv.data(), d_image.data(), d_texture.data(), nullptr);

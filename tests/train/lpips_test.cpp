@@ -17,53 +17,15 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "support/expect_error.h"
+#include "support/lpips_mini_weights.h"
+#include "train/image_loss.h"
 #include "train/lpips.h"
 
 using namespace haha;
 using haha::test::expect_error;
+using haha::test::make_weights;
 
 namespace {
-
-struct ConvSpec {
-  int index, out, k;
-};
-
-// Random weights in the documented layout. Channels are small, kernel sizes are real.
-LpipsWeights make_weights(LpipsBackbone b, unsigned seed, const std::string& source = "mini.npz") {
-  std::vector<ConvSpec> convs;
-  std::vector<int> tap_after;  // tap channel counts follow the last conv before each tap
-  if (b == LpipsBackbone::Alex) {
-    convs = {{0, 4, 11}, {3, 5, 5}, {6, 6, 3}, {8, 5, 3}, {10, 4, 3}};
-  } else {
-    convs = {{0, 3, 3},  {2, 3, 3},  {5, 4, 3},  {7, 4, 3},  {10, 5, 3}, {12, 5, 3}, {14, 5, 3},
-             {17, 4, 3}, {19, 4, 3}, {21, 4, 3}, {24, 3, 3}, {26, 3, 3}, {28, 3, 3}};
-  }
-  const std::vector<int> taps = b == LpipsBackbone::Alex ? std::vector<int>{0, 3, 6, 8, 10}
-                                                         : std::vector<int>{2, 7, 14, 21, 28};
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> g(0.f, 1.f);
-  std::uniform_real_distribution<float> u(0.1f, 1.f);
-  LpipsWeights w;
-  w.source = source;
-  const std::string p = lpips_prefix(b);
-  int in = 3, tap = 0;
-  for (const ConvSpec& c : convs) {
-    LpipsTensor wt{{c.out, in, c.k, c.k}, {}}, bt{{c.out}, {}};
-    const float s = std::sqrt(2.f / float(in * c.k * c.k));
-    for (int i = 0; i < c.out * in * c.k * c.k; ++i) wt.data.push_back(s * g(rng));
-    for (int i = 0; i < c.out; ++i) bt.data.push_back(0.05f * g(rng));
-    w.tensors[p + ".features." + std::to_string(c.index) + ".weight"] = wt;
-    w.tensors[p + ".features." + std::to_string(c.index) + ".bias"] = bt;
-    in = c.out;
-    if (c.index == taps[size_t(tap)]) {
-      LpipsTensor l{{1, c.out, 1, 1}, {}};
-      for (int i = 0; i < c.out; ++i) l.data.push_back(u(rng));  // LPIPS heads are >= 0
-      w.tensors[p + ".lin." + std::to_string(tap) + ".weight"] = l;
-      ++tap;
-    }
-  }
-  return w;
-}
 
 std::vector<double> random_image(int h, int w, unsigned seed) {
   std::mt19937 rng(seed);
@@ -303,4 +265,83 @@ TEST(Lpips, ResultsDoNotDependOnTheThreadCount) {
   const auto one = run(1), two = run(2);
   set_num_threads(keep);
   EXPECT_EQ(one, two);
+}
+
+// The LPIPS loss on a crop around the person (train/image_loss.h), as the authors train it.
+TEST(LpipsCrop, WindowLiesOnThePersonAndInsideTheImage) {
+  const int H = 60, W = 80;
+  std::vector<float> mask(size_t(H * W), 0.0f);
+  for (int y = 20; y < 50; ++y)
+    for (int x = 30; x < 40; ++x) mask[size_t(y * W + x)] = 1.0f;
+  // u = v = 0: the box's top-left pixel (30, 20) is the centre of a 16 x 16 window.
+  PixelWindow c = person_crop(mask.data(), H, W, 16, 0.0, 0.0);
+  EXPECT_EQ(c.w, 16);
+  EXPECT_EQ(c.h, 16);
+  EXPECT_EQ(c.x0, 22);
+  EXPECT_EQ(c.y0, 12);
+  // Near the bottom-right corner of the box (39, 49): shifted only as far as the image needs.
+  c = person_crop(mask.data(), H, W, 32, 0.999, 0.999);
+  EXPECT_EQ(c.x0, 39 - 16);
+  EXPECT_EQ(c.y0, H - 32);
+  // A crop larger than the image is the image; no person or no crop size: the whole image.
+  c = person_crop(mask.data(), H, W, 256, 0.5, 0.5);
+  EXPECT_EQ(c.x0, 0);
+  EXPECT_EQ(c.y0, 0);
+  EXPECT_EQ(c.w, W);
+  EXPECT_EQ(c.h, H);
+  const std::vector<float> empty(size_t(H * W), 0.0f);
+  c = person_crop(empty.data(), H, W, 16, 0.5, 0.5);
+  EXPECT_EQ(c.w, W);
+  EXPECT_EQ(c.h, H);
+  c = person_crop(mask.data(), H, W, 0, 0.5, 0.5);
+  EXPECT_EQ(c.w, W);
+  c = person_crop(nullptr, H, W, 16, 0.5, 0.5);
+  EXPECT_EQ(c.w, W);
+}
+
+TEST(LpipsCrop, LossAndGradientAreThoseOfTheCroppedImages) {
+  const LpipsBackbone b = LpipsBackbone::Vgg16;
+  LpipsNet<float> net(make_weights(b, 3), b);
+  const int H = 40, W = 50;
+  const std::vector<double> xd = random_image(H, W, 1), yd = random_image(H, W, 2);
+  const std::vector<float> x(xd.begin(), xd.end()), y(yd.begin(), yd.end());
+  LossWeights w;
+  w.l2 = w.ssim = w.sobel = 0;
+  w.lpips = 0.5;
+  ImageLossContext ctx;
+  ctx.lpips = &net;
+  ctx.lpips_window = {7, 11, 20, 18};
+  std::vector<float> grad(x.size(), 0.0f);
+  LossTerms terms;
+  const double v = image_loss(x.data(), y.data(), H, W, nullptr, w, ctx, grad.data(), 2.0f, terms);
+
+  std::vector<float> xc, yc;
+  for (int r = 11; r < 29; ++r)
+    for (int c = 7; c < 27; ++c)
+      for (int k = 0; k < 3; ++k) {
+        xc.push_back(x[size_t((r * W + c) * 3 + k)]);
+        yc.push_back(y[size_t((r * W + c) * 3 + k)]);
+      }
+  std::vector<float> gc(xc.size(), 0.0f);
+  const double ref = net.distance(xc.data(), yc.data(), 18, 20, gc.data(), float(0.5 * 2.0));
+  EXPECT_DOUBLE_EQ(v, 2.0 * 0.5 * ref);
+  EXPECT_DOUBLE_EQ(terms.lpips, 2.0 * ref);
+  size_t i = 0, nonzero = 0;
+  for (int r = 0; r < H; ++r)
+    for (int c = 0; c < W; ++c)
+      for (int k = 0; k < 3; ++k) {
+        const float g = grad[size_t((r * W + c) * 3 + k)];
+        if (r >= 11 && r < 29 && c >= 7 && c < 27) {
+          EXPECT_EQ(g, gc[i++]);
+          nonzero += g != 0.0f;
+        } else {
+          ASSERT_EQ(g, 0.0f) << r << " " << c;
+        }
+      }
+  EXPECT_GT(nonzero, gc.size() / 2);
+  // The whole-image window is the plain full-frame loss.
+  ctx.lpips_window = {};
+  LossTerms t2;
+  EXPECT_DOUBLE_EQ(image_loss(x.data(), y.data(), H, W, nullptr, w, ctx, nullptr, 1.0f, t2),
+                   0.5 * double(net.distance(x.data(), y.data(), H, W)));
 }

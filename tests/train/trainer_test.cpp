@@ -10,6 +10,7 @@
 #include "train/evaluate.h"
 #include "train/gaussian_params.h"
 #include "train/trainer.h"
+#include "support/lpips_mini_weights.h"
 #include "support/train_test_scene.h"
 
 namespace haha {
@@ -124,6 +125,38 @@ TEST(Trainer, Stage3PrunesWhatTheMeshReplacesAndKeepsWhatLeavesIt) {
     if (int(k) != h) rest_full += rf[k], rest_kept += rk[k];
   const double rest_ratio = double(rest_kept) / std::max(1, rest_full);
   EXPECT_GT(head_kept, rest_ratio) << "head " << head_kept << " rest " << rest_ratio;
+}
+
+// The LPIPS-VGG loss on crops around the person (a miniature VGG; the real weights are the
+// user's): every stage runs with it, its term is reported and the avatar stays finite; the
+// crop size changes the loss (so the crop is in use).
+TEST(Trainer, LpipsLossOnPersonCropsRunsInEveryStage) {
+  const LpipsWeights vgg = test::make_weights(LpipsBackbone::Vgg16, 5);
+  double first_lpips[2] = {0, 0};
+  for (int crop : {24, 0}) {
+    TrainConfig c = scene_config(4, 4, 4);
+    c.s1.w.lpips = c.s2.w.lpips = c.s3.w.lpips = 0.5;
+    c.lpips_crop = crop;
+    TrainInput in = scene_input(frames());
+    in.lpips = &vgg;
+    Trainer t(c, in);
+    bool seen[4] = {false, false, false, false};
+    bool first = true;
+    while (!t.done()) {
+      const StepReport r = t.step();
+      ASSERT_FALSE(r.skipped);
+      ASSERT_TRUE(std::isfinite(r.loss.lpips));
+      EXPECT_GT(r.loss.lpips, 0.0) << "stage " << r.stage;
+      if (first) first_lpips[crop == 0] = r.loss.lpips;
+      first = false;
+      seen[r.stage] = true;
+    }
+    EXPECT_TRUE(seen[1] && seen[2] && seen[3]);
+    const Avatar a = t.avatar();
+    EXPECT_TRUE(all_finite(a.gaussians.offset));
+    EXPECT_TRUE(all_finite(a.texture.rgb));
+  }
+  EXPECT_NE(first_lpips[0], first_lpips[1]);
 }
 
 }  // namespace
