@@ -86,7 +86,8 @@ struct Stage3Config {
   double lr_opacity = 0.05, lr_color = 5e-3;
   // Stage-1 loss + opacity regulariser + Dice. The paper's 0.001 sum(o^2) outweighs the
   // (pixel-mean) image losses by about 1e3 and deletes every Gaussian (measured); 1e-6 lets
-  // the image and Dice terms decide which Gaussians matter.
+  // the image and Dice terms decide which Gaussians matter. The release's 0.001 mean(|o|) is
+  // `opacity_mode = MeanAbs` (measured against this default in the README).
   LossWeights w{1.0, 0.1, 1.0, 0.01, 0.01, 0.1, 0.0, 1e-6};
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
