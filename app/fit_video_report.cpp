@@ -172,8 +172,9 @@ std::vector<int> sheet_frames(const std::vector<FitVideoFrameRow>& rows, int max
 }
 
 std::string sheet_label(const FitVideoFrameRow& r) {
-  if (r.dropped) return r.name + " DROPPED: " + r.reason;
-  return r.name + " " + fixed(r.reprojection_px, 1) + " PX IOU " + fixed(r.silhouette_iou, 2);
+  // Short: a label is clipped to its tile (about 21 characters under a 128 px tile).
+  if (r.dropped) return r.name + " DROP: " + r.reason;
+  return r.name + " " + fixed(r.reprojection_px, 1) + "PX IOU" + fixed(r.silhouette_iou, 2);
 }
 
 }  // namespace haha

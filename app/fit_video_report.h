@@ -53,7 +53,7 @@ Image draw_fit_overlay(const Image& rgb, const Camera& cam, const BodyModel& bod
 // dropped one (up to `max_tiles` more), increasing.
 std::vector<int> sheet_frames(const std::vector<FitVideoFrameRow>& rows, int max_tiles);
 
-// A label for a sheet tile: "<name> <px> PX IOU <iou>" or "<name> DROPPED: <reason>".
+// A label for a sheet tile: "<name> <px>PX IOU<iou>" or "<name> DROP: <reason>".
 std::string sheet_label(const FitVideoFrameRow& row);
 
 }  // namespace haha

@@ -288,7 +288,8 @@ TEST_F(FitVideoRunTest, ReportNamesEveryFrameAndWhyItWasDropped) {
   EXPECT_NE(table.find("\nframe 0       0  train          0    2.50   0.800\n"), std::string::npos) << table;
   EXPECT_NE(table.find("nobody in the frame"), std::string::npos) << table;
   EXPECT_NE(table.find("2.50"), std::string::npos) << table;
-  EXPECT_EQ(sheet_label(s.frames[1]), "frame 1 DROPPED: nobody in the frame");
+  EXPECT_EQ(sheet_label(s.frames[1]), "frame 1 DROP: nobody in the frame");
+  EXPECT_EQ(sheet_label(s.frames[0]), "frame 0 2.5PX IOU0.80");
 }
 
 TEST_F(FitVideoRunTest, SheetShowsEveryDroppedFrame) {
