@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <sstream>
 
@@ -168,10 +169,32 @@ InputFrames prepare_input_frames(const std::string& input, const std::string& wo
     if (fps > 0) std::snprintf(rate, sizeof rate, " -vf fps=%.9g", fps);
     if (progress) std::printf("  decoding %s with ffmpeg%s\n", input.c_str(), rate);
     // passthrough: every decoded frame once (no duplicates or drops for variable frame rates).
-    const std::string cmd = "ffmpeg -nostdin -v error -i " + shell_quoted(input) + (fps > 0 ? std::string(rate) : " -fps_mode passthrough") +
-                            " -pix_fmt rgb24 -start_number 0 " + shell_quoted((decoded / "%06d.png").string());
-    std::string out;
-    if (run_capture(cmd, out) != 0) fail(input, "ffmpeg cannot decode it (" + last_line(out) + ")");
+    // -progress on stdout: "frame=N" lines for our progress; errors to a log for the message.
+    const std::string log = (fs::path(work_dir) / "ffmpeg.log").string();
+    const std::string cmd = "ffmpeg -nostdin -v error -nostats -progress pipe:1 -i " + shell_quoted(input) +
+                            (fps > 0 ? std::string(rate) : " -fps_mode passthrough") + " -pix_fmt rgb24 -start_number 0 " +
+                            shell_quoted((decoded / "%06d.png").string()) + " 2> " + shell_quoted(log);
+    std::fflush(stdout);
+    FILE* p = popen(cmd.c_str(), "r");
+    if (!p) fail(input, "cannot start ffmpeg");
+    char line[256];
+    int last_said = 0;
+    while (std::fgets(line, sizeof line, p)) {
+      const int frame = std::strncmp(line, "frame=", 6) == 0 ? std::atoi(line + 6) : 0;
+      if (progress && frame >= last_said + 100) {
+        std::printf("  decoded %d frames\n", frame);
+        std::fflush(stdout);
+        last_said = frame;
+      }
+    }
+    if (pclose(p) != 0) {
+      std::string text;
+      try {
+        text = read_text_file(log);
+      } catch (const Error&) {
+      }
+      fail(input, "ffmpeg cannot decode it (" + last_line(text) + ")");
+    }
     const std::vector<fs::path> all = list_images(decoded.string());
     f.decoded = int(all.size());
     if (all.empty()) fail(input, "no frames decoded");

@@ -13,7 +13,7 @@
 //   fit_contact_sheet.png                              frames, fitted outline, keypoints
 //   work/frames/%06d.png                               the selected input frames
 //   work/keypoints/keypoints/*.json, work/keypoints/masks/*.png   the keypoint tool's output
-//   work/keypoints.log                                 its stderr
+//   work/keypoints.log, work/ffmpeg.log                the tool's and ffmpeg's stderr
 // Everything is assembled beside OUT (OUT.fit-<pid>, OUT.fit-work-<pid>) and moved into
 // place at the end: a failed run leaves OUT as it was (or absent). An existing OUT is
 // replaced only when it is empty or holds a dataset.json.

@@ -203,6 +203,17 @@ TEST_F(FitVideoRunTest, MissingNodeSaysHowToInstallIt) {
   expect_nothing_written(o.out);
 }
 
+TEST_F(FitVideoRunTest, MissingFfmpegSaysHowToInstallIt) {
+  std::ofstream(path("clip.mp4")) << "whatever\n";
+  fs::create_directories(path("bin"));  // a PATH without ffmpeg
+  const FitVideoOptions o = options(path("clip.mp4"));
+  {
+    ScopedEnv p("PATH", path("bin"));
+    expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"apt-get install ffmpeg"});
+  }
+  expect_nothing_written(o.out);
+}
+
 TEST_F(FitVideoRunTest, MissingToolPackagesSayHowToInstallThem) {
   if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
   const std::string in = image_folder("in", 2, 40, 30);
