@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "app/subprocess.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 
@@ -24,24 +25,6 @@ std::string quoted(const std::string& s) {
     o += (c == '\n' || c == '\r') ? ' ' : c;
   }
   return o + "\"";
-}
-
-// Shell single quotes around a path.
-std::string shell_quoted(const std::string& s) {
-  std::string o = "'";
-  for (char c : s) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return o + "'";
-}
-
-// Runs a shell command; returns its exit status and its combined output.
-int run_capture(const std::string& cmd, std::string& output) {
-  output.clear();
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return -1;
-  std::array<char, 512> buf{};
-  while (std::fgets(buf.data(), int(buf.size()), p)) output += buf.data();
-  const int st = pclose(p);
-  return st;
 }
 
 std::string first_line(const std::string& s) {

@@ -12,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "data/stage_dir.h"
 #include "io/camera_json.h"
 #include "io/json_text.h"
 #include "io/smplx_params_io.h"
@@ -108,16 +109,6 @@ Image first_channel(const Image& img) {
   Image out(img.width, img.height, 1);
   for (size_t i = 0; i < size_t(img.width) * img.height; ++i) out.data[i] = img.data[i * size_t(img.channels)];
   return out;
-}
-
-bool is_dataset_dir(const fs::path& d) {
-  std::error_code ec;
-  return fs::is_regular_file(d / "dataset.json", ec);
-}
-
-bool is_empty_dir(const fs::path& d) {
-  std::error_code ec;
-  return fs::is_directory(d, ec) && fs::is_empty(d, ec);
 }
 
 }  // namespace
@@ -358,11 +349,9 @@ DatasetWriter::DatasetWriter(std::string dir, int width, int height, double fps,
   if (s_->gender != "neutral" && s_->gender != "male" && s_->gender != "female")
     fail(dir, "gender '" + s_->gender + "' is not neutral, male or female");
   std::error_code ec;
-  if (fs::exists(s_->dir, ec)) {
-    if (!fs::is_directory(s_->dir, ec)) fail(dir, "exists and is not a directory");
-    if (!is_empty_dir(s_->dir) && !is_dataset_dir(s_->dir))
-      fail(dir, "exists, is not empty and holds no dataset.json: refusing to replace it");
-  }
+  if (fs::exists(s_->dir, ec) && !fs::is_directory(s_->dir, ec)) fail(dir, "exists and is not a directory");
+  if (!dataset_dir_replaceable(s_->dir.string()))
+    fail(dir, "exists, is not empty and holds no dataset.json: refusing to replace it");
   fs::remove_all(s_->tmp, ec);
   ensure_directory((s_->tmp / "images").string());
   ensure_directory((s_->tmp / "masks").string());
@@ -483,26 +472,7 @@ void DatasetWriter::finish() {
     if (!f) fail(json_final.string(), "write error");
   });
 
-  // Move into place; an existing dataset is swapped out first and removed after.
-  std::error_code ec;
-  if (fs::exists(s.dir, ec)) {
-    if (!is_empty_dir(s.dir) && !is_dataset_dir(s.dir))
-      fail(s.dir.string(), "exists, is not empty and holds no dataset.json: refusing to replace it");
-    const fs::path old = s.dir.string() + ".old-" + std::to_string(::getpid());
-    fs::remove_all(old, ec);
-    fs::rename(s.dir, old, ec);
-    if (ec) fail(s.dir.string(), "cannot move the previous dataset aside: " + ec.message());
-    fs::rename(s.tmp, s.dir, ec);
-    if (ec) {
-      std::error_code ec2;
-      fs::rename(old, s.dir, ec2);
-      fail(s.dir.string(), "cannot move the finished dataset into place: " + ec.message());
-    }
-    fs::remove_all(old, ec);
-  } else {
-    fs::rename(s.tmp, s.dir, ec);
-    if (ec) fail(s.dir.string(), "cannot move the finished dataset into place: " + ec.message());
-  }
+  move_dir_into_place(s.tmp.string(), s.dir.string());
   s.finished = true;
 }
 

@@ -11,6 +11,7 @@
 #include "core/parallel.h"
 #include "data/contact_sheet.h"
 #include "data/dataset.h"
+#include "data/stage_dir.h"
 #include "data/synth_subject.h"
 #include "io/body_model_io.h"
 
@@ -50,25 +51,6 @@ BodyModel synth_body(const std::string& path, BodyResolution resolution, uint64_
 
 namespace {
 
-bool replaceable(const fs::path& dir) {
-  std::error_code ec;
-  if (!fs::exists(dir, ec)) return true;
-  if (!fs::is_directory(dir, ec)) return false;
-  return fs::is_empty(dir, ec) || fs::exists(dir / "dataset.json", ec);
-}
-
-// Removes a directory on scope exit unless released.
-struct DirGuard {
-  fs::path path;
-  bool armed = true;
-  ~DirGuard() {
-    if (armed) {
-      std::error_code ec;
-      fs::remove_all(path, ec);
-    }
-  }
-};
-
 // k indices spread evenly over [0, n).
 std::vector<int> spread(int n, int k) {
   std::vector<int> out;
@@ -86,7 +68,7 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
   std::string dir = dir_in;
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
   if (dir.empty()) fail("--out", "empty output directory");
-  if (!replaceable(dir)) fail(dir, "exists and is not empty and holds no dataset.json: refusing to replace it");
+  if (!dataset_dir_replaceable(dir)) fail(dir, "exists, is not empty and holds no dataset.json: refusing to replace it");
   auto say = [&](const std::string& s) {
     if (log) log(s);
   };
@@ -122,7 +104,7 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
     std::error_code ec;
     fs::remove_all(stage, ec);
   }
-  DirGuard guard{stage};
+  DirGuard guard(stage.string());
   char src[256];
   std::snprintf(src, sizeof src,
                 "haha synth: procedural clothed subject (hair, ponytail, skirt), seed %llu, fit noise %g rad / %g m",
@@ -185,26 +167,8 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
   write_image((stage / "synth_texture.png").string(), subject.body_texture);
   if (save_body) save_body_model(body, (stage / "body_model.npz").string());
 
-  // Move into place; a previous dataset is swapped out first and removed after.
-  std::error_code ec;
-  if (fs::exists(dir, ec)) {
-    if (!replaceable(dir)) fail(dir, "exists and is not empty and holds no dataset.json: refusing to replace it");
-    const fs::path old = dir + ".old-" + std::to_string(::getpid());
-    fs::remove_all(old, ec);
-    fs::rename(dir, old, ec);
-    if (ec) fail(dir, "cannot move the previous dataset aside: " + ec.message());
-    fs::rename(stage, dir, ec);
-    if (ec) {
-      std::error_code ec2;
-      fs::rename(old, dir, ec2);
-      fail(dir, "cannot move the new dataset into place: " + ec.message());
-    }
-    fs::remove_all(old, ec);
-  } else {
-    fs::rename(stage, dir, ec);
-    if (ec) fail(dir, "cannot move the new dataset into place: " + ec.message());
-  }
-  guard.armed = false;
+  move_dir_into_place(stage.string(), dir);
+  guard.release();
   return sum;
 }
 

@@ -1,0 +1,180 @@
+#include "app/fit_video_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "render/mesh_raster.h"
+
+namespace haha {
+
+using ojson = nlohmann::ordered_json;
+
+namespace {
+
+ojson number_or_null(double v) { return std::isfinite(v) ? ojson(v) : ojson(nullptr); }
+
+std::string fixed(double v, int digits) {
+  if (!std::isfinite(v)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof b, "%.*f", digits, v);
+  return b;
+}
+
+void fill_square(Image& img, double cx, double cy, int half, const float rgb[3]) {
+  const int x0 = int(std::floor(cx)) - half, y0 = int(std::floor(cy)) - half;
+  for (int y = std::max(0, y0); y <= std::min(img.height - 1, y0 + 2 * half); ++y)
+    for (int x = std::max(0, x0); x <= std::min(img.width - 1, x0 + 2 * half); ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = rgb[c];
+}
+
+void draw_segment(Image& img, const Keypoint2& a, const Keypoint2& b, int half, const float rgb[3]) {
+  const double len = std::hypot(b.x - a.x, b.y - a.y);
+  if (!(len < 4.0 * (img.width + img.height))) return;  // non-finite or absurd
+  const int steps = std::max(1, int(len));
+  for (int k = 0; k <= steps; ++k) {
+    const double t = double(k) / steps;
+    fill_square(img, a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), half, rgb);
+  }
+}
+
+// BlazePose limbs drawn as the skeleton.
+constexpr int kLimbs[][2] = {{11, 12}, {11, 13}, {13, 15}, {12, 14}, {14, 16}, {11, 23}, {12, 24}, {23, 24},
+                             {23, 25}, {25, 27}, {24, 26}, {26, 28}, {27, 29}, {29, 31}, {28, 30}, {30, 32}};
+constexpr double kVisible = 0.5;  // visibility from which a point counts as seen
+
+}  // namespace
+
+void summarize_fit(FitVideoSummary& s) {
+  double rp = 0, iou = 0;
+  int nrp = 0, niou = 0;
+  for (const FitVideoFrameRow& r : s.frames) {
+    if (r.dropped) continue;
+    if (std::isfinite(r.reprojection_px)) rp += r.reprojection_px, ++nrp;
+    if (std::isfinite(r.silhouette_iou)) iou += r.silhouette_iou, ++niou;
+  }
+  s.mean_reprojection_px = nrp ? rp / nrp : NAN;
+  s.mean_silhouette_iou = niou ? iou / niou : NAN;
+}
+
+std::string fit_report_json(const FitVideoSummary& s) {
+  ojson j;
+  j["format"] = "haha-fit-report";
+  j["version"] = 1;
+  j["input"] = s.input;
+  j["dataset"] = s.out;
+  j["width"] = s.width;
+  j["height"] = s.height;
+  j["fps"] = s.fps;
+  j["decoded_frames"] = s.decoded;
+  j["fitted_frames"] = s.frames.size();
+  j["kept"] = s.kept;
+  j["dropped"] = s.dropped;
+  j["train"] = s.train;
+  j["test"] = s.test;
+  j["camera"] = {{"fx", s.camera.fx}, {"fy", s.camera.fy}, {"cx", s.camera.cx}, {"cy", s.camera.cy}};
+  j["mean_reprojection_px"] = number_or_null(s.mean_reprojection_px);
+  j["mean_silhouette_iou"] = number_or_null(s.mean_silhouette_iou);
+  ojson frames = ojson::array();
+  for (const FitVideoFrameRow& r : s.frames) {
+    ojson f;
+    f["frame"] = r.name;
+    f["source_index"] = r.source_index;
+    f["kept"] = !r.dropped;
+    if (r.dropped) f["reason"] = r.reason;
+    f["dataset_frame"] = r.dropped ? ojson(nullptr) : ojson(r.dataset_frame);
+    if (!r.dropped) f["split"] = split_name(r.split);
+    f["reprojection_px"] = number_or_null(r.reprojection_px);
+    f["silhouette_iou"] = number_or_null(r.silhouette_iou);
+    frames.push_back(std::move(f));
+  }
+  j["frames"] = std::move(frames);
+  return j.dump(1) + "\n";
+}
+
+std::string fit_report_table(const FitVideoSummary& s) {
+  size_t wname = 5;
+  for (const FitVideoFrameRow& r : s.frames) wname = std::max(wname, r.name.size());
+  std::string out = "haha fit-video: " + s.input + " -> " + s.out + "\n";
+  char line[512];
+  std::snprintf(line, sizeof line, "%d frames fitted (of %d decoded), %d kept (%d train, %d test), %d dropped; "
+                                   "mean reprojection %s px, mean silhouette IoU %s\n\n",
+                int(s.frames.size()), s.decoded, s.kept, s.train, s.test, s.dropped,
+                fixed(s.mean_reprojection_px, 2).c_str(), fixed(s.mean_silhouette_iou, 3).c_str());
+  out += line;
+  std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s  %s\n", int(wname), "frame", "source", "kept",
+                "dataset", "reproj", "IoU", "reason");
+  out += line;
+  for (const FitVideoFrameRow& r : s.frames) {
+    const std::string kept = r.dropped ? "dropped" : split_name(r.split);
+    std::snprintf(line, sizeof line, "%-*s  %6d  %-7s  %7s  %6s  %6s  %s\n", int(wname), r.name.c_str(), r.source_index,
+                  kept.c_str(), r.dropped ? "-" : std::to_string(r.dataset_frame).c_str(),
+                  fixed(r.reprojection_px, 2).c_str(), fixed(r.silhouette_iou, 3).c_str(), r.reason.c_str());
+    std::string l = line;
+    while (l.size() > 1 && l[l.size() - 2] == ' ') l.erase(l.size() - 2, 1);  // no trailing blanks
+    out += l;
+  }
+  return out;
+}
+
+Image draw_fit_overlay(const Image& rgb, const Camera& cam, const BodyModel& body, const std::vector<float>& verts,
+                       const KeypointsFrame& kp, bool dropped) {
+  Image img = rgb;
+  const int W = img.width, H = img.height;
+  const int half = std::max(0, std::min(W, H) / 320);  // line half-width: 1 px up to 640, then wider
+  if (!verts.empty()) {
+    MeshRaster raster;
+    rasterize_mesh(cam, MeshView{verts.data(), body.num_verts, body.faces.data(), body.num_faces}, raster);
+    const float green[3] = {0.1f, 1.0f, 0.2f};
+    auto in = [&](int x, int y) { return x >= 0 && y >= 0 && x < W && y < H && raster.mask[size_t(y) * W + x] > 0.5f; };
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (in(x, y) && (!in(x - 1, y) || !in(x + 1, y) || !in(x, y - 1) || !in(x, y + 1)))
+          fill_square(img, x + 0.5, y + 0.5, half, green);
+  }
+  if (kp.has_person()) {
+    const float left[3] = {0.2f, 0.6f, 1.0f}, right[3] = {1.0f, 0.45f, 0.1f}, hidden[3] = {0.55f, 0.55f, 0.55f},
+                hand[3] = {1.0f, 0.9f, 0.1f};
+    for (const auto& l : kLimbs) {
+      const Keypoint2 &a = kp.body[size_t(l[0])], &b = kp.body[size_t(l[1])];
+      if (a.score >= kVisible && b.score >= kVisible) draw_segment(img, a, b, half, hidden);
+    }
+    for (int i = 0; i < kBodyKeypoints; ++i) {
+      const Keypoint2& p = kp.body[size_t(i)];
+      // MediaPipe numbering: odd indices are the person's left side (the nose, 0, is drawn as right).
+      fill_square(img, p.x, p.y, half + 2, p.score < kVisible ? hidden : (i % 2 ? left : right));
+    }
+    for (const auto* h : {&kp.left_hand, &kp.right_hand})
+      for (const Keypoint2& p : *h) fill_square(img, p.x, p.y, half + 1, hand);
+  }
+  if (dropped) {
+    const float red[3] = {1.0f, 0.1f, 0.1f};
+    const int b = std::max(3, std::min(W, H) / 40);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        if (x < b || y < b || x >= W - b || y >= H - b)
+          for (int c = 0; c < 3; ++c) img.at(x, y, c) = red[c];
+  }
+  return img;
+}
+
+std::vector<int> sheet_frames(const std::vector<FitVideoFrameRow>& rows, int max_tiles) {
+  const int n = int(rows.size());
+  std::vector<int> out;
+  const int k = std::min(n, std::max(0, max_tiles));
+  for (int i = 0; i < k; ++i) out.push_back(int((int64_t(i) * n) / k));
+  int extra = 0;
+  for (int i = 0; i < n && extra < max_tiles; ++i)
+    if (rows[size_t(i)].dropped && std::find(out.begin(), out.end(), i) == out.end()) out.push_back(i), ++extra;
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string sheet_label(const FitVideoFrameRow& r) {
+  // Short: a label is clipped to its tile (about 21 characters under a 128 px tile).
+  if (r.dropped) return r.name + " DROP: " + r.reason;
+  return r.name + " " + fixed(r.reprojection_px, 1) + "PX IOU" + fixed(r.silhouette_iou, 2);
+}
+
+}  // namespace haha

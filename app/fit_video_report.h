@@ -1,0 +1,59 @@
+// What `haha fit-video` reports: per input frame kept or dropped (and why), keypoint
+// reprojection error and silhouette IoU, as OUT/fit_report.json and a plain text table
+// (OUT/fit_report.txt), and a contact sheet of frames with the fitted body's outline and
+// the keypoints drawn over them (OUT/fit_contact_sheet.png).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "body/body_model.h"
+#include "data/dataset.h"
+#include "io/image.h"
+#include "io/keypoints_json.h"
+#include "render/camera.h"
+
+namespace haha {
+
+struct FitVideoFrameRow {
+  std::string name;           // input image name, or "frame N" of a video
+  int source_index = 0;       // among the decoded / found frames
+  bool dropped = false;
+  std::string reason;         // why dropped
+  double reprojection_px = 0; // NaN: not measured
+  double silhouette_iou = 0;  // NaN: not measured
+  int dataset_frame = -1;     // row in the written dataset (-1: dropped)
+  Split split = Split::train;
+};
+
+struct FitVideoSummary {
+  std::string input, out;
+  int decoded = 0;            // frames decoded (video) or images found (folder)
+  int kept = 0, dropped = 0, train = 0, test = 0;
+  int width = 0, height = 0;
+  double fps = 0;             // of the dataset (after --fps and the --frames step)
+  Camera camera;
+  std::vector<FitVideoFrameRow> frames;  // one per frame given to the fit
+  double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
+};
+
+// Means over kept frames of the finite values; fills summary.mean_*.
+void summarize_fit(FitVideoSummary& s);
+
+std::string fit_report_json(const FitVideoSummary& s);
+std::string fit_report_table(const FitVideoSummary& s);
+
+// The frame (RGB) with the posed body's outline (the mesh rasterizer's silhouette edge,
+// through `cam`; skipped when `verts` is empty) and the keypoints drawn over it; a dropped
+// frame gets a red border.
+Image draw_fit_overlay(const Image& rgb, const Camera& cam, const BodyModel& body, const std::vector<float>& verts,
+                       const KeypointsFrame& kp, bool dropped);
+
+// Indices of the frames shown on the sheet: `max_tiles` spread evenly over [0, n) plus every
+// dropped one (up to `max_tiles` more), increasing.
+std::vector<int> sheet_frames(const std::vector<FitVideoFrameRow>& rows, int max_tiles);
+
+// A label for a sheet tile: "<name> <px>PX IOU<iou>" or "<name> DROP: <reason>".
+std::string sheet_label(const FitVideoFrameRow& row);
+
+}  // namespace haha

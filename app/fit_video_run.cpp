@@ -1,0 +1,223 @@
+#include "app/fit_video_run.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "app/fit_video_input.h"
+#include "app/keypoint_tool.h"
+#include "body/lbs.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "data/contact_sheet.h"
+#include "data/dataset.h"
+#include "data/stage_dir.h"
+#include "io/body_model_io.h"
+#include "io/image.h"
+#include "io/keypoints_json.h"
+
+namespace haha {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The fitter's result must describe exactly the frames it was given.
+void check_fit_result(const VideoFitResult& r, int n, int width, int height) {
+  const std::string where = "fit-video: the fit";
+  if (int(r.report.size()) != n)
+    fail(where, "reported " + std::to_string(r.report.size()) + " frames for " + std::to_string(n) + " given");
+  if (r.params.size() != r.kept.size())
+    fail(where, std::to_string(r.params.size()) + " parameter sets for " + std::to_string(r.kept.size()) + " kept frames");
+  for (size_t k = 0; k < r.kept.size(); ++k) {
+    const int i = r.kept[k];
+    if (i < 0 || i >= n || (k > 0 && i <= r.kept[k - 1])) fail(where, "kept frame indices are not increasing in [0, n)");
+    if (r.report[size_t(i)].dropped) fail(where, "frame " + std::to_string(i) + " is both kept and dropped");
+  }
+  int kept_in_report = 0;
+  for (const VideoFitFrameReport& f : r.report) kept_in_report += !f.dropped;
+  if (kept_in_report != int(r.kept.size()))
+    fail(where, "the report keeps " + std::to_string(kept_in_report) + " frames, the result " + std::to_string(r.kept.size()));
+  if (!r.kept.empty() && (r.camera.width != width || r.camera.height != height))
+    fail(where, "camera is " + std::to_string(r.camera.width) + "x" + std::to_string(r.camera.height) +
+                    ", the frames are " + std::to_string(width) + "x" + std::to_string(height));
+}
+
+}  // namespace
+
+void validate_fit_video_options(const FitVideoOptions& o) {
+  if (o.out.empty()) fail("--out", "give the output dataset directory");
+  if (!(o.fps >= 0) || !std::isfinite(o.fps) || o.fps > 1000) fail("--fps", "must be in [0, 1000] (0: every frame)");
+  if (!(o.focal_px >= 0) || !std::isfinite(o.focal_px) || o.focal_px > 1e6) fail("--focal", "must be a positive number of pixels");
+  if (!(o.fov_deg > 1 && o.fov_deg < 179)) fail("--fov", "must be in (1, 179) degrees");
+  if (o.test_every < 0 || o.test_every == 1) fail("--test-every", "must be 0 (no test frames) or >= 2");
+  if (o.mask != "pose" && o.mask != "selfie") fail("--mask", "'" + o.mask + "' is neither pose nor selfie");
+  if (o.sheet_tiles < 1) fail("contact sheet", "needs at least one tile");
+  parse_frame_range(o.frames);
+  std::string out = o.out;
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+  if (fs::path(out).lexically_normal() == fs::path(o.input).lexically_normal())
+    fail("--out", "must not be the input");
+  if (!dataset_dir_replaceable(out)) fail(out, "exists, is not empty and holds no dataset.json: refusing to replace it");
+}
+
+FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto say = [&](const std::string& s) {
+    if (!opt.progress) return;
+    std::printf("fit-video: %s (%.1f s)\n", s.c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    std::fflush(stdout);
+  };
+  validate_fit_video_options(opt);
+  const FrameRange range = parse_frame_range(opt.frames);
+  std::string out = opt.out;
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+
+  // Cheap checks first: the input, then the tools, before anything long runs.
+  check_input(opt.input);
+  const std::string tool = find_keypoint_tool(opt.keypoint_tool);
+  check_keypoint_tool(tool);
+
+  const std::string pid = std::to_string(::getpid());
+  const fs::path work = out + ".fit-work-" + pid, stage = out + ".fit-" + pid;
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  fs::remove_all(stage, ec);
+  DirGuard work_guard(work.string()), stage_guard(stage.string());
+
+  // (1) frames
+  say("[1/4] frames from " + opt.input);
+  const InputFrames in = prepare_input_frames(opt.input, work.string(), opt.fps, range, opt.progress);
+  const int n = int(in.paths.size());
+  say("[1/4] " + std::to_string(n) + " frames of " + std::to_string(in.width) + "x" + std::to_string(in.height) + " (" +
+      std::to_string(in.decoded) + (in.is_video ? " decoded)" : " found)"));
+
+  // (2) keypoints and masks
+  say("[2/4] keypoints and masks (" + tool + ")");
+  const fs::path kp_dir = work / "keypoints";
+  run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.progress,
+                    (work / "keypoints.log").string());
+  std::vector<VideoFitInputFrame> frames(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const std::string stem = fs::path(in.paths[size_t(i)]).stem().string();
+    const std::string json = (kp_dir / "keypoints" / (stem + ".json")).string();
+    if (!fs::is_regular_file(json, ec)) fail(json, "missing: the keypoint tool wrote no file for " + in.paths[size_t(i)]);
+    VideoFitInputFrame& f = frames[size_t(i)];
+    f.keypoints = read_keypoints_json(json);
+    if (f.keypoints.width != in.width || f.keypoints.height != in.height)
+      fail(json, "size " + std::to_string(f.keypoints.width) + "x" + std::to_string(f.keypoints.height) +
+                     " differs from the frame's " + std::to_string(in.width) + "x" + std::to_string(in.height));
+    if (!f.keypoints.mask.empty()) {
+      const std::string mpath = (kp_dir / f.keypoints.mask).string();
+      f.mask = read_image(mpath);
+      if (f.mask.width != in.width || f.mask.height != in.height || f.mask.channels != 1)
+        fail(mpath, "mask is " + std::to_string(f.mask.width) + "x" + std::to_string(f.mask.height) + "x" +
+                        std::to_string(f.mask.channels) + ", expected " + std::to_string(in.width) + "x" +
+                        std::to_string(in.height) + " with one channel");
+    }
+  }
+  int with_person = 0;
+  for (const VideoFitInputFrame& f : frames) with_person += f.keypoints.has_person();
+  say("[2/4] a person in " + std::to_string(with_person) + " of " + std::to_string(n) + " frames");
+
+  // (3) the fit
+  say("[3/4] SMPL-X fit");
+  VideoFitOptions vo;
+  vo.focal_px = opt.focal_px;
+  vo.fov_deg = opt.fov_deg;
+  vo.progress = opt.progress;
+  const VideoFitResult r = fit(frames, vo);
+  check_fit_result(r, n, in.width, in.height);
+  if (r.kept.empty()) fail(opt.input, "no frame could be fitted (see the reasons above; nothing written)");
+  say("[3/4] " + std::to_string(r.kept.size()) + " frames kept, " + std::to_string(n - int(r.kept.size())) + " dropped");
+
+  // (4) the dataset, the report and the contact sheet
+  FitVideoSummary s;
+  s.input = opt.input;
+  s.out = out;
+  s.decoded = in.decoded;
+  s.width = in.width;
+  s.height = in.height;
+  s.fps = in.fps / range.step;
+  s.camera = r.camera;
+  s.frames.resize(size_t(n));
+  for (int i = 0; i < n; ++i) {
+    FitVideoFrameRow& row = s.frames[size_t(i)];
+    const VideoFitFrameReport& rep = r.report[size_t(i)];
+    row.name = in.names[size_t(i)];
+    row.source_index = in.source_index[size_t(i)];
+    row.dropped = rep.dropped;
+    row.reason = rep.dropped && rep.reason.empty() ? std::string("dropped by the fit") : rep.reason;
+    row.reprojection_px = rep.reprojection_px;
+    row.silhouette_iou = rep.silhouette_iou;
+  }
+  const std::string source = "haha fit-video: " + fs::path(opt.input).filename().string() + " (" +
+                             std::to_string(r.kept.size()) + " of " + std::to_string(n) + " frames kept)";
+  {
+    DatasetWriter writer(stage.string(), in.width, in.height, s.fps, "neutral", source);
+    writer.set_premultiplied(0);  // camera frames: colour is not multiplied by the mask
+    for (size_t k = 0; k < r.kept.size(); ++k) {
+      const int i = r.kept[k];
+      FitVideoFrameRow& row = s.frames[size_t(i)];
+      const VideoFitInputFrame& f = frames[size_t(i)];
+      if (f.mask.empty())
+        fail(in.paths[size_t(i)], "the fit kept this frame but the keypoint tool gave it no mask");
+      DatasetFrame df;
+      df.split = opt.test_every > 0 && (k + 1) % size_t(opt.test_every) == 0 ? Split::test : Split::train;
+      df.camera = r.camera;
+      df.params = r.params[k];
+      df.source_index = row.source_index;
+      df.image_path = in.paths[size_t(i)];
+      writer.add(df, read_image(in.paths[size_t(i)]), f.mask);
+      row.dataset_frame = int(k);
+      row.split = df.split;
+      ++(df.split == Split::test ? s.test : s.train);
+    }
+    writer.finish();
+  }
+  s.kept = int(r.kept.size());
+  s.dropped = n - s.kept;
+  summarize_fit(s);
+  say("[4/4] dataset: " + std::to_string(s.train) + " train + " + std::to_string(s.test) + " test frames");
+
+  write_text_file((stage / "fit_report.json").string(), fit_report_json(s));
+  write_text_file((stage / "fit_report.txt").string(), fit_report_table(s));
+  if (opt.save_body) save_body_model(body, (stage / "body_model.npz").string());
+
+  std::vector<ContactSheetTile> tiles;
+  Lbs<float> lbs(body);
+  std::vector<float> verts, joints(size_t(kNumJoints) * 3);
+  for (int i : sheet_frames(s.frames, opt.sheet_tiles)) {
+    const FitVideoFrameRow& row = s.frames[size_t(i)];
+    verts.clear();
+    if (!row.dropped) {
+      verts.resize(size_t(body.num_verts) * 3);
+      lbs.forward(r.params[size_t(row.dataset_frame)], verts.data(), joints.data(), nullptr);
+    }
+    ContactSheetTile t;
+    t.image = draw_fit_overlay(read_image(in.paths[size_t(i)]), r.camera, body, verts, frames[size_t(i)].keypoints,
+                               row.dropped);
+    t.label = sheet_label(row);
+    tiles.push_back(std::move(t));
+  }
+  ContactSheetOptions co;
+  co.columns = 8;
+  co.max_tile = 192;
+  co.title = "HAHA FIT-VIDEO: " + fs::path(opt.input).filename().string() + ", " + std::to_string(s.kept) + " KEPT, " +
+             std::to_string(s.dropped) + " DROPPED (RED)";
+  write_contact_sheet((stage / "fit_contact_sheet.png").string(), tiles, co);
+
+  fs::rename(work, stage / "work", ec);
+  if (ec) fail((stage / "work").string(), "cannot move the work folder: " + ec.message());
+  move_dir_into_place(stage.string(), out);
+  stage_guard.release();
+  say("done: " + out + " (train with: haha train --data " + out + ")");
+  return s;
+}
+
+}  // namespace haha

@@ -1,0 +1,57 @@
+// `haha fit-video`: a plain monocular video (or a folder of images) to a native dataset
+// that `haha train` takes as it is. Stages: (1) frames: decoded with ffmpeg or read from
+// the folder, --frames applied (app/fit_video_input.h); (2) keypoints and person masks from
+// tools/keypoints (app/keypoint_tool.h); (3) the SMPL-X fit (a VideoFitter, app/video_fit.h);
+// (4) the dataset of the kept frames plus the fit report and contact sheet
+// (app/fit_video_report.h).
+//
+// OUT after a successful run:
+//   dataset.json, images/, masks/, smplx/params.npz   the dataset (data/dataset.h)
+//   body_model.npz                                     the body fitted (when save_body)
+//   fit_report.json, fit_report.txt                    per input frame: kept / dropped and why,
+//                                                      reprojection px, silhouette IoU
+//   fit_contact_sheet.png                              frames, fitted outline, keypoints
+//   work/frames/%06d.png                               the selected input frames
+//   work/keypoints/keypoints/*.json, work/keypoints/masks/*.png   the keypoint tool's output
+//   work/keypoints.log, work/ffmpeg.log                the tool's and ffmpeg's stderr
+// Everything is assembled beside OUT (OUT.fit-<pid>, OUT.fit-work-<pid>) and moved into
+// place at the end: a failed run leaves OUT as it was (or absent). An existing OUT is
+// replaced only when it is empty or holds a dataset.json.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "app/fit_video_report.h"
+#include "app/video_fit.h"
+#include "body/body_model.h"
+
+namespace haha {
+
+struct FitVideoOptions {
+  std::string input;          // a video file or a folder of .png / .jpg images
+  std::string out;            // the dataset directory written
+  double fps = 0;             // > 0: video resampled to this rate (ffmpeg fps filter); a folder's rate
+                              // (default 30); 0: every decoded frame at the video's own rate
+  double focal_px = 0;        // VideoFitOptions::focal_px
+  double fov_deg = 55;        // VideoFitOptions::fov_deg (used when focal_px is 0)
+  std::string frames;         // --frames A:B:S (first, last exclusive, step) after decoding; "" = all
+  int test_every = 0;         // every Nth kept frame goes to the "test" split; 0: none
+  std::string keypoint_tool;  // tools/keypoints folder ("" = find_keypoint_tool's search)
+  std::string mask = "pose";  // the tool's mask: pose | selfie
+  bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
+  int sheet_tiles = 40;       // frames on the contact sheet (plus the dropped ones)
+  bool progress = true;       // stage lines on stdout, the tool's progress passed through
+};
+
+using VideoFitter = std::function<VideoFitResult(const std::vector<VideoFitInputFrame>&, const VideoFitOptions&)>;
+
+// Checks the options (one haha::Error line each: "--fps: ...", "<input>: ...").
+void validate_fit_video_options(const FitVideoOptions& opt);
+
+// The whole run. `body` draws the fitted outline on the contact sheet (and is saved with
+// save_body); `fit` must have been made for the same body. Throws haha::Error.
+FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit);
+
+}  // namespace haha

@@ -1,0 +1,350 @@
+// `haha fit-video` plumbing without the keypoint models: --frames parsing, video decoding
+// with ffmpeg (count, size, --fps resampling), bad inputs (one error line, nothing left in
+// OUT), the report and the contact-sheet overlay. The full run on `haha synth` frames with
+// the keypoint tool is in fit_video_run_slow_test.cpp.
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "app/fit_video_input.h"
+#include "app/fit_video_report.h"
+#include "app/fit_video_run.h"
+#include "app/keypoint_tool.h"
+#include "app/subprocess.h"
+#include "body/lbs.h"
+#include "body/procedural_body.h"
+#include "render/mesh_raster.h"
+#include "support/data_test_util.h"
+
+namespace haha {
+namespace {
+
+namespace fs = std::filesystem;
+using test::expect_error_at;
+using testutil::expect_error;
+
+// A smooth picture (lossy video codecs keep it) that moves with the frame.
+Image smooth_frame(int w, int h, int frame) {
+  Image img(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)
+        img.at(x, y, c) = float(0.5 + 0.4 * std::sin(0.15 * x + 0.1 * y + 0.9 * frame + 2.0 * c));
+  return img;
+}
+
+double mean_abs_diff(const Image& a, const Image& b) {
+  double e = 0;
+  for (size_t k = 0; k < a.data.size(); ++k) e += std::abs(a.data[k] - b.data[k]);
+  return e / double(a.data.size());
+}
+
+// Sets an environment variable for one scope, then restores it.
+struct ScopedEnv {
+  std::string name, old;
+  bool had = false;
+  ScopedEnv(const std::string& n, const std::string& v) : name(n) {
+    if (const char* o = std::getenv(n.c_str())) had = true, old = o;
+    ::setenv(n.c_str(), v.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (had) ::setenv(name.c_str(), old.c_str(), 1);
+    else ::unsetenv(name.c_str());
+  }
+};
+
+VideoFitResult never_called(const std::vector<VideoFitInputFrame>&, const VideoFitOptions&) {
+  ADD_FAILURE() << "the fit must not run on bad input";
+  return {};
+}
+
+class FitVideoRunTest : public testutil::TempDirTest {
+ protected:
+  // n frames of w x h as PNGs in DIR.
+  std::string image_folder(const std::string& name, int n, int w, int h) {
+    const std::string dir = path(name);
+    fs::create_directories(dir);
+    for (int i = 0; i < n; ++i) {
+      char f[32];
+      std::snprintf(f, sizeof f, "img_%03d.png", i);
+      write_image((fs::path(dir) / f).string(), smooth_frame(w, h, i));
+    }
+    return dir;
+  }
+  // The same frames encoded as an H.264 mp4 at `rate` fps.
+  std::string encode_mp4(const std::string& folder, double rate) {
+    const std::string mp4 = path("clip.mp4");
+    std::string log;
+    const int st = run_capture("ffmpeg -nostdin -v error -framerate " + std::to_string(rate) + " -i " +
+                                   shell_quoted(folder + "/img_%03d.png") + " -c:v libx264 -pix_fmt yuv420p " +
+                                   shell_quoted(mp4),
+                               log);
+    EXPECT_EQ(st, 0) << log;
+    return mp4;
+  }
+  // Nothing named OUT or OUT.* is left beside OUT.
+  void expect_nothing_written(const std::string& out) {
+    EXPECT_FALSE(fs::exists(out)) << out;
+    const std::string stem = fs::path(out).filename().string();
+    for (const auto& e : fs::directory_iterator(fs::path(out).parent_path()))
+      EXPECT_NE(e.path().filename().string().rfind(stem + ".", 0), 0u) << "left behind: " << e.path();
+  }
+  FitVideoOptions options(const std::string& input) {
+    FitVideoOptions o;
+    o.input = input;
+    o.out = path("out");
+    o.progress = false;
+    return o;
+  }
+  bool have_ffmpeg() { return program_on_path("ffmpeg") && program_on_path("ffprobe"); }
+};
+
+TEST_F(FitVideoRunTest, FrameRangeParsesAndSelects) {
+  const FrameRange all = parse_frame_range("");
+  EXPECT_EQ(select_frames(all, 4), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(select_frames(parse_frame_range("1:7:2"), 10), (std::vector<int>{1, 3, 5}));
+  EXPECT_EQ(select_frames(parse_frame_range("2:"), 5), (std::vector<int>{2, 3, 4}));
+  EXPECT_EQ(select_frames(parse_frame_range(":2"), 5), (std::vector<int>{0, 1}));
+  EXPECT_EQ(select_frames(parse_frame_range("3"), 5), (std::vector<int>{3, 4}));
+  EXPECT_EQ(select_frames(parse_frame_range("::3"), 7), (std::vector<int>{0, 3, 6}));
+  EXPECT_EQ(select_frames(parse_frame_range("0:100"), 3), (std::vector<int>{0, 1, 2}));  // clipped at the end
+  EXPECT_TRUE(select_frames(parse_frame_range("8:"), 5).empty());
+  for (const char* bad : {"a:b", "5:2", "3:3", "0:4:0", "1:2:3:4", "-1:", "0:4:x"})
+    expect_error_at("--frames", [&] { parse_frame_range(bad); }, {std::string("'") + bad + "'"});
+}
+
+TEST_F(FitVideoRunTest, FolderFramesAreSelectedAndRenumbered) {
+  const std::string in = image_folder("in", 5, 40, 30);
+  const InputFrames f = prepare_input_frames(in, path("work"), 0, parse_frame_range("1::2"), false);
+  EXPECT_FALSE(f.is_video);
+  EXPECT_EQ(f.decoded, 5);
+  EXPECT_EQ(f.fps, 30);
+  EXPECT_EQ(f.width, 40);
+  EXPECT_EQ(f.height, 30);
+  EXPECT_EQ(f.source_index, (std::vector<int>{1, 3}));
+  EXPECT_EQ(f.names, (std::vector<std::string>{"img_001.png", "img_003.png"}));
+  ASSERT_EQ(f.paths.size(), 2u);
+  EXPECT_EQ(fs::path(f.paths[1]).filename(), "000001.png");
+  const Image back = read_image(f.paths[1]);
+  ASSERT_EQ(back.channels, 3);
+  EXPECT_LT(mean_abs_diff(back, smooth_frame(40, 30, 3)), 0.5 / 255);  // PNG round trip: 8-bit rounding only
+}
+
+TEST_F(FitVideoRunTest, VideoDecodesToTheRightCountAndSize) {
+  if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
+  const std::string mp4 = encode_mp4(image_folder("in", 6, 64, 48), 10);
+  const InputFrames f = prepare_input_frames(mp4, path("work"), 0, {}, false);
+  EXPECT_TRUE(f.is_video);
+  EXPECT_EQ(f.decoded, 6);
+  EXPECT_EQ(f.paths.size(), 6u);
+  EXPECT_EQ(f.width, 64);
+  EXPECT_EQ(f.height, 48);
+  EXPECT_NEAR(f.fps, 10.0, 1e-6);
+  EXPECT_EQ(f.names[2], "frame 2");
+  // The decoded pixels are the encoded frame, in order (H.264 is lossy: closest, not equal).
+  const Image got = read_image(f.paths[4]);
+  EXPECT_LT(mean_abs_diff(got, smooth_frame(64, 48, 4)), 0.03);
+  EXPECT_LT(mean_abs_diff(got, smooth_frame(64, 48, 4)), 0.5 * mean_abs_diff(got, smooth_frame(64, 48, 3)));
+  EXPECT_FALSE(fs::exists(path("work/decoded")));
+
+  // --fps 5 halves the frames; --frames applies after decoding.
+  const InputFrames h = prepare_input_frames(mp4, path("work"), 5, parse_frame_range("1:"), false);
+  EXPECT_EQ(h.decoded, 3);
+  EXPECT_EQ(h.source_index, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(h.fps, 5.0, 1e-9);
+  EXPECT_EQ(fs::path(h.paths[0]).filename(), "000000.png");
+}
+
+TEST_F(FitVideoRunTest, MissingInputIsOneLineAndNothingWritten) {
+  const FitVideoOptions o = options(path("nope.mp4"));
+  expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"no such file or folder"});
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, NonVideoFileIsOneLineAndNothingWritten) {
+  if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
+  std::ofstream(path("notes.mp4")) << "this is not a video\n";
+  const FitVideoOptions o = options(path("notes.mp4"));
+  expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"not a video ffmpeg can read"});
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, EmptyFolderIsOneLineAndNothingWritten) {
+  fs::create_directories(path("empty"));
+  std::ofstream(path("empty/readme.txt")) << "no images here\n";
+  const FitVideoOptions o = options(path("empty"));
+  expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"no .png or .jpg images"});
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, MixedSizesAreOneLineAndNothingWritten) {
+  const std::string in = image_folder("in", 3, 40, 30);
+  write_image(path("in/img_002.png"), smooth_frame(32, 30, 2));
+  const FitVideoOptions o = options(in);
+  expect_error_at(path("in/img_002.png"), [&] { run_fit_video(o, BodyModel{}, never_called); },
+                  {"32x30", "img_000.png is 40x30", "one size"});
+  expect_nothing_written(o.out);
+  // --frames that leaves out the odd image passes the check (and stops at the tool or later).
+  EXPECT_EQ(prepare_input_frames(in, path("work"), 0, parse_frame_range(":2"), false).paths.size(), 2u);
+}
+
+TEST_F(FitVideoRunTest, MissingNodeSaysHowToInstallIt) {
+  const std::string in = image_folder("in", 2, 40, 30);
+  fs::create_directories(path("bin"));  // a PATH without node (nor anything else)
+  const FitVideoOptions o = options(in);
+  {
+    ScopedEnv p("PATH", path("bin"));
+    expect_error_at("node", [&] { run_fit_video(o, BodyModel{}, never_called); }, {"apt-get install nodejs npm"});
+  }
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, MissingFfmpegSaysHowToInstallIt) {
+  std::ofstream(path("clip.mp4")) << "whatever\n";
+  fs::create_directories(path("bin"));  // a PATH without ffmpeg
+  const FitVideoOptions o = options(path("clip.mp4"));
+  {
+    ScopedEnv p("PATH", path("bin"));
+    expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"apt-get install ffmpeg"});
+  }
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, MissingToolPackagesSayHowToInstallThem) {
+  if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
+  const std::string in = image_folder("in", 2, 40, 30);
+  fs::create_directories(path("tool"));
+  std::ofstream(path("tool/keypoints.mjs")) << "process.exit(3);\n";
+  const FitVideoOptions o = options(in);
+  {
+    ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool"));
+    EXPECT_EQ(find_keypoint_tool("elsewhere"), path("tool"));
+    expect_error_at(path("tool/node_modules"), [&] { run_fit_video(o, BodyModel{}, never_called); },
+                    {"scripts/setup-keypoints.sh"});
+  }
+  expect_nothing_written(o.out);
+  {
+    ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("nowhere"));
+    expect_error_at(path("nowhere/keypoints.mjs"), [&] { run_fit_video(o, BodyModel{}, never_called); },
+                    {"HAHA_KEYPOINTS_TOOL"});
+  }
+  expect_nothing_written(o.out);
+}
+
+TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
+  const std::string in = image_folder("in", 1, 16, 16);
+  auto bad = [&](const char* where, auto edit) {
+    FitVideoOptions o = options(in);
+    edit(o);
+    expect_error_at(where, [&] { validate_fit_video_options(o); }, {});
+  };
+  bad("--fps", [](FitVideoOptions& o) { o.fps = -1; });
+  bad("--fps", [](FitVideoOptions& o) { o.fps = NAN; });
+  bad("--focal", [](FitVideoOptions& o) { o.focal_px = -5; });
+  bad("--fov", [](FitVideoOptions& o) { o.fov_deg = 180; });
+  bad("--test-every", [](FitVideoOptions& o) { o.test_every = 1; });
+  bad("--mask", [](FitVideoOptions& o) { o.mask = "rvm"; });
+  bad("--frames", [](FitVideoOptions& o) { o.frames = "4:2"; });
+  bad("--out", [](FitVideoOptions& o) { o.out = ""; });
+  bad("--out", [&](FitVideoOptions& o) { o.out = in + "/"; });
+  // An OUT that holds something else is never replaced.
+  std::ofstream(path("precious.txt")) << "keep\n";
+  fs::create_directories(path("other"));
+  std::ofstream(path("other/precious.txt")) << "keep\n";
+  bad(path("other").c_str(), [&](FitVideoOptions& o) { o.out = path("other"); });
+  bad(path("precious.txt").c_str(), [&](FitVideoOptions& o) { o.out = path("precious.txt"); });
+}
+
+FitVideoSummary two_frame_summary() {
+  FitVideoSummary s;
+  s.input = "clip.mp4";
+  s.out = "ds";
+  s.decoded = 2;
+  s.frames.resize(2);
+  s.frames[0].name = "frame 0";
+  s.frames[0].reprojection_px = 2.5;
+  s.frames[0].silhouette_iou = 0.8;
+  s.frames[0].dataset_frame = 0;
+  s.frames[1].name = "frame 1";
+  s.frames[1].source_index = 1;
+  s.frames[1].dropped = true;
+  s.frames[1].reason = "nobody in the frame";
+  s.frames[1].reprojection_px = NAN;
+  s.frames[1].silhouette_iou = NAN;
+  s.kept = s.dropped = s.train = 1;
+  summarize_fit(s);
+  return s;
+}
+
+TEST_F(FitVideoRunTest, ReportNamesEveryFrameAndWhyItWasDropped) {
+  const FitVideoSummary s = two_frame_summary();
+  EXPECT_DOUBLE_EQ(s.mean_reprojection_px, 2.5);  // the dropped frame does not count
+  const auto j = nlohmann::json::parse(fit_report_json(s));
+  EXPECT_EQ(j["format"], "haha-fit-report");
+  ASSERT_EQ(j["frames"].size(), 2u);
+  EXPECT_EQ(j["frames"][0]["kept"], true);
+  EXPECT_EQ(j["frames"][0]["split"], "train");
+  EXPECT_DOUBLE_EQ(j["frames"][0]["reprojection_px"].get<double>(), 2.5);
+  EXPECT_EQ(j["frames"][1]["kept"], false);
+  EXPECT_EQ(j["frames"][1]["reason"], "nobody in the frame");
+  EXPECT_TRUE(j["frames"][1]["reprojection_px"].is_null());
+  EXPECT_TRUE(j["frames"][1]["dataset_frame"].is_null());
+  const std::string table = fit_report_table(s);
+  EXPECT_NE(table.find("\nframe 1       1  dropped        -       -       -  nobody in the frame\n"), std::string::npos)
+      << table;
+  EXPECT_NE(table.find("\nframe 0       0  train          0    2.50   0.800\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("nobody in the frame"), std::string::npos) << table;
+  EXPECT_NE(table.find("2.50"), std::string::npos) << table;
+  EXPECT_EQ(sheet_label(s.frames[1]), "frame 1 DROP: nobody in the frame");
+  EXPECT_EQ(sheet_label(s.frames[0]), "frame 0 2.5PX IOU0.80");
+}
+
+TEST_F(FitVideoRunTest, SheetShowsEveryDroppedFrame) {
+  std::vector<FitVideoFrameRow> rows(100);
+  rows[37].dropped = rows[38].dropped = true;
+  const std::vector<int> pick = sheet_frames(rows, 10);
+  EXPECT_EQ(pick.size(), 12u);
+  EXPECT_NE(std::find(pick.begin(), pick.end(), 37), pick.end());
+  EXPECT_NE(std::find(pick.begin(), pick.end(), 38), pick.end());
+  EXPECT_TRUE(std::is_sorted(pick.begin(), pick.end()));
+  EXPECT_EQ(sheet_frames(std::vector<FitVideoFrameRow>(3), 10), (std::vector<int>{0, 1, 2}));
+}
+
+TEST_F(FitVideoRunTest, OverlayOutlinesTheRasterizedBodyAndMarksDrops) {
+  ProceduralBodyOptions po;
+  po.resolution = BodyResolution::low;
+  const BodyModel body = make_procedural_body(po);
+  Camera cam;
+  cam.width = cam.height = 64;
+  cam.fx = cam.fy = 80;
+  cam.cx = cam.cy = 32;
+  SmplxParams p;
+  p.transl[2] = 3.0f;  // in front of the camera
+  std::vector<float> verts(size_t(body.num_verts) * 3), joints(size_t(kNumJoints) * 3);
+  Lbs<float>(body).forward(p, verts.data(), joints.data(), nullptr);
+  MeshRaster raster;
+  rasterize_mesh(cam, MeshView{verts.data(), body.num_verts, body.faces.data(), body.num_faces}, raster);
+  const Image black(64, 64, 3);
+  const Image img = draw_fit_overlay(black, cam, body, verts, KeypointsFrame{}, false);
+  // Green exactly on silhouette pixels next to a background pixel (at 64 px the line is 1 px).
+  int edge = 0;
+  for (int y = 1; y < 63; ++y)
+    for (int x = 1; x < 63; ++x) {
+      auto m = [&](int u, int v) { return raster.mask[size_t(v) * 64 + u] > 0.5f; };
+      const bool is_edge = m(x, y) && (!m(x - 1, y) || !m(x + 1, y) || !m(x, y - 1) || !m(x, y + 1));
+      EXPECT_EQ(img.at(x, y, 1) > 0.5f, is_edge) << x << ", " << y;
+      edge += is_edge;
+    }
+  EXPECT_GT(edge, 20);
+  // A dropped frame: red border; with no body given, no outline.
+  const Image d = draw_fit_overlay(black, cam, body, {}, KeypointsFrame{}, true);
+  EXPECT_EQ(d.at(0, 0, 0), 1.0f);
+  EXPECT_EQ(d.at(32, 32, 1), 0.0f);
+}
+
+}  // namespace
+}  // namespace haha
