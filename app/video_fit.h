@@ -11,6 +11,7 @@
 #include "body/body_model.h"
 #include "body/smplx_params.h"
 #include "io/image.h"
+#include "app/video_fit_objective.h"
 #include "io/keypoints_json.h"
 #include "render/camera.h"
 
@@ -25,6 +26,28 @@ struct VideoFitOptions {
   double focal_px = 0;  // > 0: focal length in pixels; 0: from fov_deg and the frame width
   double fov_deg = 55;  // horizontal field of view guessed when focal_px is 0
   bool progress = true; // stage, iteration, loss, ETA on stdout
+
+  // Which frames are fitted (app/video_fit_frames.h).
+  double min_score = 0.5;          // detection score below this: dropped
+  double min_visibility = 0.5;     // a keypoint counts as seen at this visibility
+  double min_seen_fraction = 0.5;  // of the 12 limb and torso points, seen inside the frame
+  double cut_jump = 1.0;           // torso centre moving more than this many torso lengths
+                                   // from the previous frame: scene cut
+  double cut_scale = 1.6;          // torso length changing by more than this factor: scene cut
+
+  // The fit (app/video_fit_objective.h for the objective and its weights). Stages, as in
+  // SMPLify: global orient and transl on the torso and face points; then everything; then,
+  // where frames have masks, everything plus the silhouette term.
+  VideoFitWeights weights;
+  int num_betas = 10;
+  int iters_global = 60, iters_body = 300, iters_silhouette = 40;
+  double lr_orient = 0.03, lr_body = 0.03, lr_transl = 0.02, lr_betas = 0.03;  // Adam, per stage
+  double lr_final_factor = 0.1;  // log-linear decay to this fraction over each stage
+  // Silhouette term: w_silhouette x silhouette_mismatch (train/silhouette_fit.h) of the
+  // antialiased body silhouette against the mask, rendered with the frame scaled so that
+  // its longer side is at most silhouette_size pixels.
+  double w_silhouette = 0.05, silhouette_outside = 1.0, silhouette_inside = 0.3;
+  int silhouette_size = 192;
 };
 
 struct VideoFitFrameReport {

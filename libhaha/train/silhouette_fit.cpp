@@ -43,18 +43,50 @@ std::vector<std::vector<float>> temporal_pose_anchors(const std::vector<TrainFra
   return out;
 }
 
+BodySilhouette::BodySilhouette(const BodyModel& body)
+    : neighbors_(mesh_face_neighbors(body.faces.data(), body.num_faces, body.num_verts)),
+      topology_(topology_of(body)),
+      texture_{1, 1, 3, white_} {
+  topology_.face_neighbors = neighbors_.data();
+  req_.body = &topology_;
+  req_.texture = &texture_;
+  req_.antialias = true;
+}
+
+const std::vector<float>& BodySilhouette::render(const Camera& camera, const float* verts) {
+  camera_ = camera;
+  req_.camera = &camera_;
+  req_.verts = verts;
+  render_avatar(req_, buf_);
+  return buf_.image;
+}
+
+void BodySilhouette::backward(const float* d_image, float* d_verts) {
+  AvatarRenderGrads gr;
+  gr.verts = d_verts;
+  render_avatar_backward(req_, buf_, d_image, nullptr, nullptr, gr);
+}
+
+double silhouette_mismatch(const float* image, const float* mask, int num_pixels, double w_outside, double w_inside,
+                           float* d_image) {
+  double loss = 0;
+  const int P = num_pixels;
+  for (int q = 0; q < P; ++q) {
+    const double m = image[3 * size_t(q)], k = mask[size_t(q)];
+    loss += w_outside * m * (1 - k) + w_inside * (1 - m) * k;
+    d_image[3 * size_t(q)] = float((w_outside * (1 - k) - w_inside * k) / P);
+    d_image[3 * size_t(q) + 1] = d_image[3 * size_t(q) + 2] = 0.0f;
+  }
+  return loss / std::max(1, P);
+}
+
 SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainFrame>& frames,
                                        const Stage0Config& opt) {
   SilhouetteFitReport rep;
   if (opt.steps <= 0) return rep;
-  const std::vector<int32_t> neighbors = mesh_face_neighbors(body.faces.data(), body.num_faces, body.num_verts);
-  BodyTopology topology = topology_of(body);
-  topology.face_neighbors = neighbors.data();
-  const float white[3] = {1, 1, 1};
-  const TextureView texture{1, 1, 3, white};  // coverage only: the image is m' in every channel
+  BodySilhouette silhouette(body);
   Lbs<float> lbs(body);
   LbsCache<float> cache;
-  AvatarRenderBuffers buf;
   std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, d_image;
   const std::vector<std::vector<float>> anchors =
       opt.window > 0 ? temporal_pose_anchors(frames, opt.window) : std::vector<std::vector<float>>();
@@ -68,24 +100,11 @@ SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainF
     std::vector<float> p0(kPoseBodyGroup);
     pose_to_groups(p, p0.data(), pf.data());
     if (!anchors.empty()) p0 = anchors[fi];
-    AvatarRenderRequest req;
-    req.camera = &f.camera;
-    req.body = &topology;
-    req.verts = verts.data();
-    req.texture = &texture;
-    req.antialias = true;
+    d_image.resize(3 * size_t(P));
     for (int s = 0; s <= opt.steps; ++s) {
       lbs.forward(p, verts.data(), nullptr, &cache);
-      render_avatar(req, buf);
-      // L = mean_p [w_out m (1 - mask) + w_in (1 - m) mask]; the image holds m in each channel.
-      double loss = 0;
-      d_image.assign(3 * size_t(P), 0.0f);
-      for (int q = 0; q < P; ++q) {
-        const double m = buf.image[3 * size_t(q)], k = f.mask[size_t(q)];
-        loss += opt.w_outside * m * (1 - k) + opt.w_inside * (1 - m) * k;
-        d_image[3 * size_t(q)] = float((opt.w_outside * (1 - k) - opt.w_inside * k) / P);
-      }
-      loss /= P;
+      const std::vector<float>& image = silhouette.render(f.camera, verts.data());
+      double loss = silhouette_mismatch(image.data(), f.mask.data(), P, opt.w_outside, opt.w_inside, d_image.data());
       pose_to_groups(p, pb.data(), pf.data());
       for (int k = 0; k < kPoseBodyGroup; ++k) loss += opt.w_prior * double(pb[k] - p0[k]) * (pb[k] - p0[k]);
       if (s == 0) rep.loss_start.push_back(loss);
@@ -94,9 +113,7 @@ SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainF
         break;
       }
       d_verts.assign(verts.size(), 0.0f);
-      AvatarRenderGrads gr;
-      gr.verts = d_verts.data();
-      render_avatar_backward(req, buf, d_image.data(), nullptr, nullptr, gr);
+      silhouette.backward(d_image.data(), d_verts.data());
       SmplxGrad<float> sg = lbs.make_grad(p);
       lbs.backward(p, cache, d_verts.data(), nullptr, sg);
       pose_to_groups(sg, db.data(), dfn.data());

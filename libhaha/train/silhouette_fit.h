@@ -12,9 +12,39 @@
 
 #include "body/body_model.h"
 #include "body/smplx_params.h"
+#include "render/avatar_render.h"
 #include "train/trainer.h"
 
 namespace haha {
+
+// The body's antialiased silhouette (render/mesh_antialias.h) for silhouette terms: the
+// mesh rendered white, so each image channel holds the coverage m in [0, 1], with the
+// vertex gradient at its edges.
+class BodySilhouette {
+ public:
+  explicit BodySilhouette(const BodyModel& body);  // keeps a pointer to body
+  BodySilhouette(const BodySilhouette&) = delete;
+  BodySilhouette& operator=(const BodySilhouette&) = delete;
+  // The coverage image (P, 3) of the body posed as verts (V, 3) seen by camera.
+  const std::vector<float>& render(const Camera& camera, const float* verts);
+  // Adds dL/dverts (V, 3) for dL/dimage (P, 3) of the last render (same camera and verts).
+  void backward(const float* d_image, float* d_verts);
+
+ private:
+  std::vector<int32_t> neighbors_;
+  BodyTopology topology_;
+  float white_[3] = {1, 1, 1};
+  TextureView texture_;
+  Camera camera_;
+  AvatarRenderRequest req_;
+  AvatarRenderBuffers buf_;
+};
+
+// L = mean over pixels of [w_outside m (1 - k) + w_inside (1 - m) k] for the coverage m
+// (channel 0 of image, (P, 3)) against the mask k (P); dL/dimage into d_image (P, 3),
+// overwritten (channels 1, 2 zero).
+double silhouette_mismatch(const float* image, const float* mask, int num_pixels, double w_outside, double w_inside,
+                           float* d_image);
 
 struct SilhouetteFitReport {
   std::vector<double> loss_start, loss_end;  // per frame

@@ -1,0 +1,37 @@
+// Which frames of a video the fit uses (app/video_fit.h), and their 2D targets. A frame is
+// dropped, with the reason, when nobody is detected, the detection score is low, no
+// shoulder or no hip or less than min_seen_fraction of the 12 limb and torso points are
+// seen inside the frame ("person cut off"
+// when those points lie outside it), or the torso jumps from the previous frame (a scene
+// cut: its centre moves more than cut_jump torso lengths or its length changes by more
+// than cut_scale). Kept frames link to the previous one for the temporal terms only when it
+// is the previous input frame and was kept.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "app/video_fit.h"
+#include "app/video_fit_objective.h"
+
+namespace haha {
+
+struct VideoFitSelection {
+  std::vector<std::string> reason;       // per input frame; empty = kept
+  std::vector<int> kept;                 // input indices, increasing
+  std::vector<VideoFitTargets> targets;  // per kept frame
+};
+
+// Visibility of keypoints outside the frame counts as 0 in the targets (BlazePose
+// extrapolates hidden points there).
+VideoFitSelection select_video_frames(const std::vector<VideoFitInputFrame>& frames,
+                                      const std::vector<VideoFitPoint>& points, const VideoFitOptions& opt);
+
+// 2D torso of a frame's body points: centre (mean of shoulders and hips) and size (the
+// larger of the shoulder-hip distance and the shoulder and hip widths, >= 1 px).
+struct Torso2D {
+  double x = 0, y = 0, size = 1;
+};
+Torso2D torso_2d(const KeypointsFrame& k);
+
+}  // namespace haha

@@ -1,0 +1,149 @@
+// Fixtures of the video-fit tests: synthetic BlazePose keypoints of a posed body (the fit's
+// own correspondence projected through the camera, hips shifted towards the shoulders as
+// BlazePose places them, Gaussian pixel noise, visibility dropouts), a writer of the
+// keypoint JSON contract (docs/keypoints.md), and the body-joint error after a per-frame
+// similarity Procrustes alignment (PA-MPJPE).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "app/video_fit_points.h"
+#include "body/lbs.h"
+#include "core/math.h"
+#include "io/keypoints_json.h"
+#include "render/camera.h"
+
+namespace haha::test {
+
+struct SyntheticKeypointOptions {
+  double noise_px = 2.5;      // Gaussian sigma per coordinate
+  double dropout = 0.1;       // chance that a point is reported hidden (visibility 0.1, displaced)
+  double hip_shift = 0.08;    // hips moved this fraction of the torso towards the shoulders
+};
+
+// Keypoints of `params` posed by lbs, seen by cam; frame name `name`.
+inline KeypointsFrame synthetic_keypoints(const Lbs<double>& lbs, const std::vector<VideoFitPoint>& points,
+                                          const SmplxParams& params, const Camera& cam, const std::string& name,
+                                          const SyntheticKeypointOptions& o, std::mt19937& rng) {
+  std::vector<double> verts(size_t(lbs.num_verts()) * 3), joints(size_t(kNumJoints) * 3);
+  lbs.forward(params, verts.data(), joints.data(), nullptr);
+  const CameraT<double> c = cam.cast<double>();
+  KeypointsFrame k;
+  k.frame = name;
+  k.width = cam.width;
+  k.height = cam.height;
+  k.people = 1;
+  k.score = 0.95;
+  k.body.assign(kBodyKeypoints, Keypoint2{});
+  std::vector<bool> set(kBodyKeypoints, false);
+  for (const VideoFitPoint& p : points) {
+    const double* x = p.joint >= 0 ? &joints[size_t(3 * p.joint)] : &verts[size_t(3 * p.vertex)];
+    const Vec2<double> px = c.project(c.to_camera(Vec3d(x[0], x[1], x[2])));
+    k.body[size_t(p.blazepose)] = {px.x, px.y, 0.95};
+    set[size_t(p.blazepose)] = true;
+  }
+  namespace bp = blazepose;
+  auto mid = [&](int a, int b) {
+    return Keypoint2{0.5 * (k.body[size_t(a)].x + k.body[size_t(b)].x), 0.5 * (k.body[size_t(a)].y + k.body[size_t(b)].y), 0.95};
+  };
+  const Keypoint2 sh = mid(bp::left_shoulder, bp::right_shoulder), hp = mid(bp::left_hip, bp::right_hip);
+  for (int h : {bp::left_hip, bp::right_hip}) {
+    k.body[size_t(h)].x += o.hip_shift * (sh.x - hp.x);
+    k.body[size_t(h)].y += o.hip_shift * (sh.y - hp.y);
+  }
+  // The points the fit does not use: near their neighbours.
+  for (int i = 0; i < kBodyKeypoints; ++i) {
+    if (set[size_t(i)]) continue;
+    int near = bp::nose;
+    if (i == bp::left_eye_inner || i == bp::left_eye_outer) near = bp::left_eye;
+    if (i == bp::right_eye_inner || i == bp::right_eye_outer) near = bp::right_eye;
+    if (i == bp::left_pinky || i == bp::left_index || i == bp::left_thumb) near = bp::left_wrist;
+    if (i == bp::right_pinky || i == bp::right_index || i == bp::right_thumb) near = bp::right_wrist;
+    k.body[size_t(i)] = k.body[size_t(near)];
+  }
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (Keypoint2& p : k.body) {
+    p.x += o.noise_px * g(rng);
+    p.y += o.noise_px * g(rng);
+    if (u(rng) < o.dropout) {
+      p.score = 0.1;
+      p.x += 20 * g(rng);
+      p.y += 20 * g(rng);
+    }
+    p.score = std::min(1.0, std::max(0.0, p.score));
+    // The reader's limit: within one image size of the frame.
+    p.x = std::clamp(p.x, -double(k.width) * kKeypointMargin, double(k.width) * (1 + kKeypointMargin));
+    p.y = std::clamp(p.y, -double(k.height) * kKeypointMargin, double(k.height) * (1 + kKeypointMargin));
+  }
+  return k;
+}
+
+// The keypoint JSON of docs/keypoints.md (body_world and hands null, no mask).
+inline std::string keypoints_json(const KeypointsFrame& k) {
+  std::string s = "{\"format\": \"haha-keypoints\", \"version\": 1, \"frame\": \"" + k.frame + "\", \"width\": " +
+                  std::to_string(k.width) + ", \"height\": " + std::to_string(k.height) +
+                  ", \"people\": " + std::to_string(k.people) + ", \"score\": " + std::to_string(k.score) + ", \"body\": ";
+  if (k.body.empty()) {
+    s += "null";
+  } else {
+    s += "[";
+    char buf[96];
+    for (size_t i = 0; i < k.body.size(); ++i) {
+      std::snprintf(buf, sizeof buf, "%s[%.4f, %.4f, %.4f]", i ? ", " : "", k.body[i].x, k.body[i].y, k.body[i].score);
+      s += buf;
+    }
+    s += "]";
+  }
+  s += ", \"body_world\": null, \"left_hand\": null, \"right_hand\": null, \"mask\": null, \"model\": \"synthetic\"}";
+  return s;
+}
+
+// Mean distance (same units as the input) of points b to points a after the similarity
+// (rotation, uniform scale, translation) that best maps b onto a (Umeyama; the rotation
+// from Horn's quaternion, the top eigenvector by power iteration).
+inline double procrustes_error(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
+  const size_t n = a.size();
+  Vec3d ma(0, 0, 0), mb(0, 0, 0);
+  for (size_t i = 0; i < n; ++i) ma += a[i], mb += b[i];
+  ma = ma / double(n), mb = mb / double(n);
+  double S[3][3] = {}, vb = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3d pa = a[i] - ma, pb = b[i] - mb;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) S[r][c] += pb[r] * pa[c];
+    vb += norm2(pb);
+  }
+  const double Sxx = S[0][0], Sxy = S[0][1], Sxz = S[0][2], Syx = S[1][0], Syy = S[1][1], Syz = S[1][2], Szx = S[2][0],
+               Szy = S[2][1], Szz = S[2][2];
+  double N[4][4] = {{Sxx + Syy + Szz, Syz - Szy, Szx - Sxz, Sxy - Syx},
+                    {Syz - Szy, Sxx - Syy - Szz, Sxy + Syx, Szx + Sxz},
+                    {Szx - Sxz, Sxy + Syx, -Sxx + Syy - Szz, Syz + Szy},
+                    {Sxy - Syx, Szx + Sxz, Syz + Szy, -Sxx - Syy + Szz}};
+  double shift = 0;
+  for (auto& row : N)
+    for (double x : row) shift += std::abs(x);
+  for (int i = 0; i < 4; ++i) N[i][i] += shift;  // positive definite: power iteration finds the top one
+  double q[4] = {1, 0.1, 0.01, 0.001};
+  for (int it = 0; it < 2000; ++it) {
+    double r[4] = {};
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) r[i] += N[i][j] * q[j];
+    const double l = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+    for (int i = 0; i < 4; ++i) q[i] = r[i] / l;
+  }
+  const Mat3<double> R = quat_to_mat(Quat<double>{q[0], q[1], q[2], q[3]});
+  double num = 0;
+  for (size_t i = 0; i < n; ++i) num += dot(a[i] - ma, R * (b[i] - mb));
+  const double s = vb > 0 ? num / vb : 1;
+  double err = 0;
+  for (size_t i = 0; i < n; ++i) err += norm((a[i] - ma) - s * (R * (b[i] - mb)));
+  return err / double(n);
+}
+
+}  // namespace haha::test
