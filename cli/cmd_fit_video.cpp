@@ -1,0 +1,44 @@
+// `haha fit-video`: a plain monocular video (or a folder of images) to a native dataset with
+// SMPL-X fits (app/fit_video_run.h: frames, keypoint tool, the fit of app/video_fit.h).
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "app/fit_video_run.h"
+#include "app/video_fit.h"
+#include "command.h"
+#include "data/synth_subject.h"
+
+HAHA_COMMAND(fit_video) {
+  struct Opts {
+    haha::FitVideoOptions o;
+    std::string body;
+  };
+  auto a = std::make_shared<Opts>();
+  auto* sub = app.add_subcommand("fit-video", "Keypoints, masks and SMPL-X fits from a plain video: a dataset for haha train");
+  sub->add_option("input", a->o.input, "video file (decoded with ffmpeg) or folder of .png / .jpg images")->required();
+  sub->add_option("--out", a->o.out, "output dataset directory")->required();
+  sub->add_option("--fps", a->o.fps, "resample the video to this rate (0: every frame; a folder's rate, default 30)")
+      ->capture_default_str();
+  auto* focal = sub->add_option("--focal", a->o.focal_px, "focal length in pixels (static camera)");
+  sub->add_option("--fov", a->o.fov_deg, "horizontal field of view guess in degrees, when --focal is not given")
+      ->capture_default_str()
+      ->excludes(focal);
+  sub->add_option("--frames", a->o.frames, "A:B:S: frames A (first) to B (exclusive; empty = end) every S, after decoding");
+  sub->add_option("--test-every", a->o.test_every, "every Nth kept frame goes to the test split (0: none)")
+      ->capture_default_str();
+  sub->add_option("--mask", a->o.mask, "person mask of the keypoint tool: pose | selfie")->capture_default_str();
+  sub->add_option("--keypoint-tool", a->o.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
+  sub->add_option("--model", a->body,
+                  "SMPL-X model .npz to fit (default: the procedural body, also written to OUT/body_model.npz)");
+  sub->callback([a] {
+    haha::validate_fit_video_options(a->o);
+    const haha::BodyModel body = haha::synth_body(a->body, haha::BodyResolution::full, 0);
+    a->o.save_body = a->body.empty();
+    const haha::FitVideoSummary s =
+        haha::run_fit_video(a->o, body, [&body](const std::vector<haha::VideoFitInputFrame>& frames,
+                                                const haha::VideoFitOptions& vo) { return haha::fit_video(body, frames, vo); });
+    std::printf("%s: %d frames kept (%d train, %d test), %d dropped; keypoint error %.2f px, silhouette IoU %.3f\n",
+                s.out.c_str(), s.kept, s.train, s.test, s.dropped, s.mean_reprojection_px, s.mean_silhouette_iou);
+  });
+}
