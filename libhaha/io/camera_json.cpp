@@ -24,19 +24,9 @@ struct RawCamera {
   double near_plane = 0.01, far_plane = 100;
 };
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(9);
-  s << v;
-  return s.str();
-}
+std::string num(double v) { return json_num_text(v); }
 
-double number(const json& v, const std::string& where, const std::string& key) {
-  if (!v.is_number()) fail(where, key + ": expected a number, got " + std::string(v.type_name()));
-  const double d = v.get<double>();
-  if (!std::isfinite(d)) fail(where, key + ": value is not finite");
-  return d;
-}
+double number(const json& v, const std::string& where, const std::string& key) { return json_number(v, where, key); }
 
 void matrix(const json& v, int rows, int cols, double* out, const std::string& where, const std::string& key) {
   const std::string shape = std::to_string(rows) + "x" + std::to_string(cols);

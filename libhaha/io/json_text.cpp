@@ -1,6 +1,8 @@
 #include "io/json_text.h"
 
+#include <cmath>
 #include <set>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -29,6 +31,20 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& where
   }
   if (!dup.empty()) fail(where, dup + ": duplicate key");
   return root;
+}
+
+double json_number(const nlohmann::json& v, const std::string& where, const std::string& key) {
+  if (!v.is_number()) fail(where, key + ": expected a number, got " + std::string(v.type_name()));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) fail(where, key + ": value is not finite");
+  return d;
+}
+
+std::string json_num_text(double v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
 }
 
 }  // namespace haha

@@ -16,4 +16,10 @@ std::string json_error_message(const std::exception& e);
 // key repeated in the top-level object, which nlohmann would otherwise resolve silently).
 nlohmann::json parse_json_text(const std::string& text, const std::string& where);
 
+// A finite number; fails "<where>: <key>: expected a number, got <type>" / "value is not finite".
+double json_number(const nlohmann::json& v, const std::string& where, const std::string& key);
+
+// A number for error messages (9 significant digits).
+std::string json_num_text(double v);
+
 }  // namespace haha

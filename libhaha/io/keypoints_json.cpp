@@ -13,19 +13,9 @@ namespace {
 
 using json = nlohmann::json;
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(9);
-  s << v;
-  return s.str();
-}
+std::string num(double v) { return json_num_text(v); }
 
-double number(const json& v, const std::string& where, const std::string& key) {
-  if (!v.is_number()) fail(where, key + ": expected a number, got " + std::string(v.type_name()));
-  const double d = v.get<double>();
-  if (!std::isfinite(d)) fail(where, key + ": value is not finite");
-  return d;
-}
+double number(const json& v, const std::string& where, const std::string& key) { return json_number(v, where, key); }
 
 double unit(const json& v, const std::string& where, const std::string& key) {
   const double d = number(v, where, key);
