@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The test command: installs, builds and runs the CTest suite (labels fast, slow and fuzz;
-# the gpu label is left out: `scripts/test.sh -L gpu` on a GPU machine). `scripts/test.sh
-# -L fast` runs the fast ones.
+# The test command: installs, builds and runs the CTest suite (labels fast, slow and fuzz,
+# and gpu where an NVIDIA GPU is present and the build has the CUDA backend).
+# `scripts/test.sh -L fast` runs the fast ones, `scripts/test.sh -L gpu` the GPU ones.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
@@ -10,6 +10,10 @@ cd build
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 if [ $# -gt 0 ]; then
   ctest --output-on-failure -j "$(nproc)" "$@"
+elif nvidia-smi -L 2>/dev/null | grep -q '^GPU' && ctest -N -L gpu | grep -q 'Total Tests: [1-9]'; then
+  echo "haha: NVIDIA GPU found, running the gpu-labelled tests too"
+  ctest --output-on-failure -j "$(nproc)"
 else
+  echo "haha: no NVIDIA GPU (nvidia-smi) or no CUDA build: leaving out the gpu-labelled tests"
   ctest --output-on-failure -j "$(nproc)" -LE gpu
 fi
