@@ -55,6 +55,7 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (!(o.focal_px >= 0) || !std::isfinite(o.focal_px) || o.focal_px > 1e6) fail("--focal", "must be a positive number of pixels");
   if (!(o.fov_deg > 1 && o.fov_deg < 179)) fail("--fov", "must be in (1, 179) degrees");
   if (o.test_every < 0 || o.test_every == 1) fail("--test-every", "must be 0 (no test frames) or >= 2");
+  if (o.test_from < 0) fail("--test-from", "must be a frame number >= 1 (0: no held-out end)");
   if (o.mask != "pose" && o.mask != "selfie") fail("--mask", "'" + o.mask + "' is neither pose nor selfie");
   if (o.sheet_tiles < 1) fail("contact sheet", "needs at least one tile");
   parse_frame_range(o.frames);
@@ -63,6 +64,12 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (fs::path(out).lexically_normal() == fs::path(o.input).lexically_normal())
     fail("--out", "must not be the input");
   if (!dataset_dir_replaceable(out)) fail(out, "exists, is not empty and holds no dataset.json: refusing to replace it");
+}
+
+Split fit_video_split(const FitVideoOptions& o, int kept_ordinal, int source_index) {
+  const bool every = o.test_every > 0 && (kept_ordinal + 1) % o.test_every == 0;
+  const bool end = o.test_from > 0 && source_index >= o.test_from;
+  return every || end ? Split::test : Split::train;
 }
 
 FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit) {
@@ -168,7 +175,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
       if (f.mask.empty())
         fail(in.paths[size_t(i)], "the fit kept this frame but the keypoint tool gave it no mask");
       DatasetFrame df;
-      df.split = opt.test_every > 0 && (k + 1) % size_t(opt.test_every) == 0 ? Split::test : Split::train;
+      df.split = fit_video_split(opt, int(k), row.source_index);
       df.camera = r.camera;
       df.params = r.params[k];
       df.source_index = row.source_index;
@@ -178,6 +185,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
       row.split = df.split;
       ++(df.split == Split::test ? s.test : s.train);
     }
+    if (s.train == 0) fail(opt.out, "every kept frame went to the test split (--test-every / --test-from): nothing to train on");
     writer.finish();
   }
   s.kept = int(r.kept.size());

@@ -38,6 +38,8 @@ struct FitVideoOptions {
   double fov_deg = 55;        // VideoFitOptions::fov_deg (used when focal_px is 0)
   std::string frames;         // --frames A:B:S (first, last exclusive, step) after decoding; "" = all
   int test_every = 0;         // every Nth kept frame goes to the "test" split; 0: none
+  int test_from = 0;          // > 0: kept frames decoded at or after this frame number go to
+                              // "test" (hold out the end of a clip); 0: none
   std::string keypoint_tool;  // tools/keypoints folder ("" = find_keypoint_tool's search)
   std::string mask = "pose";  // the tool's mask: pose | selfie
   bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
@@ -49,6 +51,10 @@ using VideoFitter = std::function<VideoFitResult(const std::vector<VideoFitInput
 
 // Checks the options (one haha::Error line each: "--fps: ...", "<input>: ...").
 void validate_fit_video_options(const FitVideoOptions& opt);
+
+// The split of the kept frame number kept_ordinal (0-based, in kept order) decoded as frame
+// source_index: test under --test-every or --test-from, else train.
+Split fit_video_split(const FitVideoOptions& opt, int kept_ordinal, int source_index);
 
 // The whole run. `body` draws the fitted outline on the contact sheet (and is saved with
 // save_body); `fit` must have been made for the same body. Throws haha::Error.

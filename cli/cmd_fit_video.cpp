@@ -27,6 +27,9 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--frames", a->o.frames, "A:B:S: frames A (first) to B (exclusive; empty = end) every S, after decoding");
   sub->add_option("--test-every", a->o.test_every, "every Nth kept frame goes to the test split (0: none)")
       ->capture_default_str();
+  sub->add_option("--test-from", a->o.test_from,
+                  "kept frames decoded at or after frame K (before --frames) go to the test split (0: none)")
+      ->capture_default_str();
   sub->add_option("--mask", a->o.mask, "person mask of the keypoint tool: pose | selfie")->capture_default_str();
   sub->add_option("--keypoint-tool", a->o.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
   sub->add_option("--model", a->body,

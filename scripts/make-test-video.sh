@@ -8,7 +8,9 @@
 #
 # Writes OUT/synth/ (the dataset with the exact fits and body_model.npz: the reference to
 # compare the fit with and to train the exact-fit avatar on), OUT/video.mp4 (the training
-# frames: one slow turn) and OUT/video_test.mp4 (the test frames: novel poses). Progress
+# frames: one slow turn), OUT/video_test.mp4 (the test frames: novel poses) and
+# OUT/video_all.mp4 (both, in that order: `haha fit-video --test-from FRAMES` holds the
+# test frames out with one shared fit, as the avatar comparison needs). Progress
 # from haha synth; one line `haha: error: ...` and exit 1 when ffmpeg or haha is missing.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
@@ -16,7 +18,7 @@ out="" size=512 frames=40 test_frames=10 seed=0 fps=30 haha="$repo/build/cli/hah
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
     --size|--frames|--test-frames|--seed|--fps|--haha)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in
@@ -45,4 +47,7 @@ encode() {  # FIRST COUNT FILE
   echo "$3: $2 frames, ${size}x${size}, $fps fps"
 }
 encode 0 "$frames" "$out/video.mp4"
-if [ "$test_frames" -gt 0 ]; then encode "$frames" "$test_frames" "$out/video_test.mp4"; fi
+if [ "$test_frames" -gt 0 ]; then
+  encode "$frames" "$test_frames" "$out/video_test.mp4"
+  encode 0 "$((frames + test_frames))" "$out/video_all.mp4"
+fi

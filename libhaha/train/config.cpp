@@ -76,6 +76,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s1.lr.color", K::Double, &s1.lr_color, "colour (logit) lr"});
   v.push_back({"s1.lr.pose", K::Double, &s1.lr_pose, "global orient / body pose / transl / betas lr"});
   v.push_back({"s1.lr.pose_fine", K::Double, &s1.lr_pose_fine, "jaw / hand pose lr"});
+  v.push_back({"s1.lr.pose_final", K::Double, &s1.lr_pose_final,
+               "pose lr at the stage end, log-linear from s1.lr.pose (fine rates scaled alike); 0 = constant"});
   v.push_back({"s1.refine_pose", K::Bool, &s1.refine_pose, "refine per-frame SMPL-X pose, transl and betas"});
   v.push_back({"s1.opacity", K::Double, &s1.opacity, "fixed opacity of stage 1"});
   v.push_back({"s1.init_scale", K::Double, &s1.init_scale, "initial local scale (units of k)"});

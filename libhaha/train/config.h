@@ -52,6 +52,10 @@ struct Stage1Config {
   double lr_rotation = 5e-3, lr_scale = 5e-3, lr_color = 5e-3;
   double lr_pose = 2e-4;       // global orient, body pose, transl, betas
   double lr_pose_fine = 2e-5;  // jaw, hands
+  // > 0: both pose rates decay log-linearly over the stage to lr_pose_final / lr_pose of
+  // their start (a large early rate repairs fits, a small late one lets the avatar settle);
+  // 0: constant.
+  double lr_pose_final = 0;
   bool refine_pose = true;
   double opacity = 0.99;       // held fixed during the stage
   double init_scale = 0.015;   // activated local scale at start (units of the face scale k)

@@ -61,6 +61,11 @@ void Trainer::Impl::update_stage1() {
   adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
   adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
   if (cfg.s1.refine_pose) {
+    // Decayed pose rates (s1.lr.pose_final): the same factor for every pose group.
+    double f = 1;
+    if (cfg.s1.lr_pose_final > 0 && cfg.s1.lr_pose > 0)
+      f = LogLinearLr{cfg.s1.lr_pose, cfg.s1.lr_pose_final, cfg.s1.steps}(step) / cfg.s1.lr_pose;
+    adam.set_lr(adam.group("betas"), f * cfg.s1.lr_pose);
     if (pose_hook) pose_hook("betas", d_betas);  // exactly what Adam receives
     adam.step(adam.group("betas"), betas.data(), d_betas.data());
     for (int i = 0; i < nf; ++i) {
@@ -72,8 +77,12 @@ void Trainer::Impl::update_stage1() {
         pose_hook("frame" + std::to_string(i) + ".body", d_frame_body[size_t(i)]);
         pose_hook("frame" + std::to_string(i) + ".fine", d_frame_fine[size_t(i)]);
       }
-      adam.step(adam.group("frame" + std::to_string(i) + ".body"), body_vals.data(), d_frame_body[size_t(i)].data());
-      adam.step(adam.group("frame" + std::to_string(i) + ".fine"), fine_vals.data(), d_frame_fine[size_t(i)].data());
+      const int gb = adam.group("frame" + std::to_string(i) + ".body");
+      const int gf = adam.group("frame" + std::to_string(i) + ".fine");
+      adam.set_lr(gb, f * cfg.s1.lr_pose);
+      adam.set_lr(gf, f * cfg.s1.lr_pose_fine);
+      adam.step(gb, body_vals.data(), d_frame_body[size_t(i)].data());
+      adam.step(gf, fine_vals.data(), d_frame_fine[size_t(i)].data());
       groups_to_pose(body_vals.data(), fine_vals.data(), p);
     }
   }

@@ -235,6 +235,22 @@ TEST_F(FitVideoRunTest, MissingToolPackagesSayHowToInstallThem) {
   expect_nothing_written(o.out);
 }
 
+TEST(FitVideoSplit, EveryNthKeptFrameAndTheHeldOutEnd) {
+  FitVideoOptions o;
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(fit_video_split(o, k, 10 * k), Split::train) << k;
+  o.test_every = 3;  // the 3rd, 6th, ... kept frame
+  for (int k = 0; k < 6; ++k) EXPECT_EQ(fit_video_split(o, k, 0), k % 3 == 2 ? Split::test : Split::train) << k;
+  o.test_every = 0;
+  o.test_from = 40;  // by decoded frame number, not by kept order
+  EXPECT_EQ(fit_video_split(o, 3, 39), Split::train);
+  EXPECT_EQ(fit_video_split(o, 3, 40), Split::test);
+  EXPECT_EQ(fit_video_split(o, 0, 45), Split::test);
+  o.test_every = 2;  // both: either makes a test frame
+  EXPECT_EQ(fit_video_split(o, 1, 5), Split::test);
+  EXPECT_EQ(fit_video_split(o, 0, 5), Split::train);
+  EXPECT_EQ(fit_video_split(o, 0, 41), Split::test);
+}
+
 TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
   const std::string in = image_folder("in", 1, 16, 16);
   auto bad = [&](const char* where, auto edit) {
@@ -247,6 +263,7 @@ TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
   bad("--focal", [](FitVideoOptions& o) { o.focal_px = -5; });
   bad("--fov", [](FitVideoOptions& o) { o.fov_deg = 180; });
   bad("--test-every", [](FitVideoOptions& o) { o.test_every = 1; });
+  bad("--test-from", [](FitVideoOptions& o) { o.test_from = -3; });
   bad("--mask", [](FitVideoOptions& o) { o.mask = "rvm"; });
   bad("--frames", [](FitVideoOptions& o) { o.frames = "4:2"; });
   bad("--out", [](FitVideoOptions& o) { o.out = ""; });

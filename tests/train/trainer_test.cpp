@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/error.h"
@@ -85,6 +86,43 @@ TEST(Trainer, PoseRefinementMovesTowardTheTruth) {
   Trainer t2(c, scene_input(f));
   while (!t2.done()) t2.step();
   for (const SmplxParams& p : t2.refined_params()) EXPECT_FLOAT_EQ(p.transl[0], 0.03f);
+}
+
+// s1.lr.pose_final: the pose rates decay log-linearly over stage 1. Adam's first step
+// moves every value with a gradient by about the rate, so the per-step change of the
+// transl follows the rate: equal at step 1, ~100x smaller at the end for a 100x decay.
+TEST(Trainer, PoseRateDecaysToItsFinalValue) {
+  std::vector<TrainFrame> f = scene_frames(scene_truth(), 3, 32);
+  for (TrainFrame& x : f) x.params.transl[0] += 0.03f;
+  auto last_moves = [&](double final_lr) {
+    TrainConfig c = scene_config(8, 0, 0);
+    c.batch = 3;  // every frame in every step
+    c.s1.lr_pose = 2e-3;
+    c.s1.lr_pose_final = final_lr;
+    c.s1.densify_every = 0;
+    Trainer t(c, scene_input(f));
+    std::vector<double> moves;  // largest |change| of a transl value per step
+    std::vector<SmplxParams> before = t.refined_params();
+    while (!t.done()) {
+      t.step();
+      const std::vector<SmplxParams> now = t.refined_params();
+      double m = 0;
+      for (size_t i = 0; i < now.size(); ++i)
+        for (int k = 0; k < 3; ++k) m = std::max(m, double(std::fabs(now[i].transl[k] - before[i].transl[k])));
+      moves.push_back(m);
+      before = now;
+    }
+    return moves;
+  };
+  const std::vector<double> constant = last_moves(0), same = last_moves(2e-3), decayed = last_moves(2e-5);
+  ASSERT_EQ(constant.size(), 8u);
+  std::printf("largest transl change per step, constant / decayed rate: first %.3g / %.3g, last %.3g / %.3g\n",
+              constant[0], decayed[0], constant.back(), decayed.back());
+  EXPECT_EQ(same, constant);  // final = start: the constant rate, bit for bit
+  EXPECT_NEAR(decayed[0], constant[0], 1e-9);  // step 1 at the start rate
+  EXPECT_GT(constant[0], 1e-3);                // Adam's first step ~ the rate (2e-3)
+  EXPECT_LT(decayed.back(), 0.05 * constant.back());
+  EXPECT_GT(decayed.back(), 0);
 }
 
 TEST(Trainer, Stage2LowersTheTextureLoss) {
