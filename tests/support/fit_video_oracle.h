@@ -20,7 +20,7 @@ struct OracleFitter {
   std::vector<int> source;         // per input frame: its frame in `truth`
   std::set<int> drop;              // input frames to report as dropped
   mutable int calls = 0;
-  mutable VideoFitOptions seen;    // the options of the last call
+  mutable VideoFitOptions seen{};  // the options of the last call
 
   static double reprojection(int i) { return 1.0 + 0.25 * i; }
   static double iou(int i) { return 0.9 - 0.01 * i; }

@@ -31,7 +31,10 @@ inline void add_dense_pose_correctives(BodyModel& b, uint32_t seed = 5, double d
     }
     for (int v = 0; v < V; ++v) {
       double d[3], r2 = 0;
-      for (int c = 0; c < 3; ++c) r2 += (d[c] = b.v_template[size_t(v) * 3 + c] - J[c]) * d[c];
+      for (int c = 0; c < 3; ++c) {
+        d[c] = b.v_template[size_t(v) * 3 + c] - J[c];
+        r2 += d[c] * d[c];
+      }
       const double amp = scale * std::exp(-std::sqrt(r2) / decay_m);
       for (int a = 0; a < kPatterns; ++a) {
         const double f = amp * std::cos(freq[a][0] * d[0] + freq[a][1] * d[1] + freq[a][2] * d[2] + phase[a]);
