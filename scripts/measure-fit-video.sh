@@ -2,31 +2,34 @@
 # Issue 18's avatar measurement: is an avatar trained from `haha fit-video`'s fits as good as
 # one trained from the exact fits, on the same held-out frames?
 #
-#   scripts/measure-fit-video.sh OUT [--haha build/cli/haha] [--train "key=value ..."]
-#                                    [--eval "--antialias --tto-steps 100"]
+#   scripts/measure-fit-video.sh OUT [--haha build/cli/haha] [--fit "fit-video options"]
+#                                    [--train "key=value ..."] [--eval "--antialias --tto-steps 100"]
 #
 # 1. scripts/make-test-video.sh OUT (the embedded subject at 512 px: 40 frames of a turn and
 #    10 test frames in novel poses, with the exact fits in OUT/synth);
 # 2. haha fit-video OUT/video_all.mp4 --test-from 40 (one fit of all 50 frames, the last 10
-#    held out), on the subject's own body model, so that only the fits differ;
+#    held out; --fit adds options, e.g. "--focal 643.4" for a calibrated camera), on the
+#    subject's own body model, so that only the fits differ;
 # 3. trains the tiny preset on both datasets with the same settings (--train; default the
 #    README's recommendation for imperfect fits) and evaluates both on the test split with
 #    the same options (--eval). The fitted avatar is evaluated with its fitted test poses
 #    (and test-time pose optimisation) against the same ground-truth pixels as the exact one:
-#    OUT/fit_eval is OUT/fit with the test frames' images and masks pointing at the synth
+#    OUT/fit_eval is OUT/fit with the test frames' images and masks replaced by the synth
 #    PNGs (the video frames are H.264-decoded and the tool's masks are not exact);
-# 4. prints both eval tables and the difference. Needs python3 (the JSON edit of step 3).
+# 4. prints both eval tables and the two HAHA rows. Needs python3 (the JSON edit of step 3).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 out="" haha="$repo/build/cli/haha"
-train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
+fit_opts="" train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
-    --haha|--train|--eval)
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    --haha|--fit|--train|--eval)
       [ $# -ge 2 ] || die "$1: needs a value"
-      case "$1" in --haha) haha="$2" ;; --train) train_keys="$2" ;; --eval) eval_opts="$2" ;; esac
+      case "$1" in
+        --haha) haha="$2" ;; --fit) fit_opts="$2" ;; --train) train_keys="$2" ;; --eval) eval_opts="$2" ;;
+      esac
       shift 2 ;;
     -*) die "$1: unknown option" ;;
     *) [ -z "$out" ] || die "$1: only one OUT folder"; out="$1"; shift ;;
@@ -42,22 +45,23 @@ stamp() { echo "measure-fit-video: [$1] $2 ($((SECONDS - t0)) s)"; }
 stamp 1/5 "synthetic video"
 bash "$repo/scripts/make-test-video.sh" "$out" --haha "$haha" --frames 40 --test-frames 10
 stamp 2/5 "haha fit-video"
-"$haha" fit-video "$out/video_all.mp4" --out "$out/fit" --test-from 40 --model "$out/synth/body_model.npz"
+# shellcheck disable=SC2086  # the options are a word list on purpose
+"$haha" fit-video "$out/video_all.mp4" --out "$out/fit" --test-from 40 --model "$out/synth/body_model.npz" $fit_opts
 
 stamp 3/5 "eval dataset of the fitted avatar: test frames on the synth pixels"
 rm -rf "$out/fit_eval"
 cp -r "$out/fit" "$out/fit_eval"
-python3 - "$out/fit_eval/dataset.json" <<'EOF'
-import json, sys
-p = sys.argv[1]
-d = json.load(open(p))
+python3 - "$out/fit_eval" "$out/synth" <<'EOF'
+import json, shutil, sys
+ev, synth = sys.argv[1], sys.argv[2]
+d = json.load(open(ev + "/dataset.json"))
 for f in d["frames"]:
-    if f["split"] == "test":
+    if f["split"] == "test":  # decoded frame i of video_all.mp4 is synth frame i
         i = f["source_index"]
-        f["image"] = "../synth/images/%06d.png" % i
-        f["mask"] = "../synth/masks/%06d.png" % i
+        shutil.copyfile(synth + "/images/%06d.png" % i, ev + "/" + f["image"])
+        shutil.copyfile(synth + "/masks/%06d.png" % i, ev + "/" + f["mask"])
 d["premultiplied"] = True  # the synth PNGs are composited on black with their soft masks
-json.dump(d, open(p + ".tmp", "w"), indent=1)
+json.dump(d, open(ev + "/dataset.json.tmp", "w"), indent=1)
 EOF
 mv "$out/fit_eval/dataset.json.tmp" "$out/fit_eval/dataset.json"
 
@@ -73,4 +77,6 @@ for which in exact fit; do
   "$haha" eval --run "$out/run_$which" --data "$data" $eval_opts > "$out/eval_$which.txt"
 done
 for which in exact fit; do echo "== avatar from the $which fits"; cat "$out/eval_$which.txt"; done
+echo "== held-out novel poses, $eval_opts:"
+for which in exact fit; do echo "$which fits: $(grep -m1 -E '^ +HAHA filtered +PSNR' "$out/eval_$which.txt")"; done
 stamp done "tables above; runs in $out/run_exact, $out/run_fit"
