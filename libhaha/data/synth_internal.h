@@ -24,6 +24,8 @@ constexpr int kNeckJoint = 12, kHeadJoint = 15;
 constexpr double kSkirtV0 = 0.98, kSkirtV1 = 0.34, kPonytailV0 = 0.30, kPonytailV1 = 0.02;
 constexpr int kSkirtRings = 20, kSkirtColumns = 96;
 constexpr double kSkirtPleats = 16;
+// Subject 2's long hair sheet: rows from the top down, kLongHairColumns + 1 vertices each.
+constexpr int kLongHairRows = 30, kLongHairColumns = 36;
 
 // Skinning-weight groups that pick a vertex's garment region.
 enum Group : int { gTorso, gNeck, gHead, gEye, gLeg, gFoot, gArm, gHand, kGroups };
@@ -104,6 +106,7 @@ struct SkirtSpec {
   double flare = 0.10;        // extra radius at the hem (grows as t^1.5)
   double pleat_depth = 0.018, pleats = kSkirtPleats;
   double legs = 0.7;          // share of the hips' rotation at the hem
+  double leg_blend = 0.06;    // half-width (m) of the left/right thigh blend across the middle
   int rings = kSkirtRings, columns = kSkirtColumns;
 };
 SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<float>& rest,

@@ -815,7 +815,7 @@ SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<
       const V3 p(pel.x + r * std::sin(phi), ring_y(i), pel.z + r * std::cos(phi));
       m.rest.insert(m.rest.end(), {float(p.x), float(p.y), float(p.z)});
       m.vt.insert(m.vt.end(), {float(double(k) / C), float(kSkirtV0 + (kSkirtV1 - kSkirtV0) * t)});
-      const double sl = smoothstep(-0.06, 0.06, p.x - pel.x);  // left thigh share
+      const double sl = smoothstep(-spec.leg_blend, spec.leg_blend, p.x - pel.x);  // left thigh share
       add_weight(m, 0, 1 - legs);
       add_weight(m, 1, legs * sl);
       add_weight(m, 2, legs * (1 - sl));

@@ -132,7 +132,6 @@ V3 shade_long_hair(const CoatPalette& C, double s, double u) {
   return mix(c, 1.5 * C.base.hair + V3(0.05, 0.04, 0.03), 0.5 * smoothstep(0.7, 1.0, s));  // lighter tips
 }
 
-constexpr int kHairRows = 30, kHairColumns = 36;
 constexpr double kHairHalfWidth = 0.34 * kPi;  // azimuths covered either side of the back
 
 // Long loose hair: a sheet around the neck axis over the back of the head, from above the
@@ -143,7 +142,7 @@ SynthMesh make_long_hair(const Anatomy& A, const std::vector<float>& verts, cons
                          const std::vector<int>& tris) {
   const double ax = A.J[kNeckJoint].x, az = A.J[kNeckJoint].z;
   const double y_top = A.eye_mid.y + 1.2 * A.d, y_end = A.J[6].y;
-  const int R = kHairRows, C = kHairColumns;
+  const int R = kLongHairRows, C = kLongHairColumns;
   auto across = [&](int k) { return 2.0 * k / C - 1; };  // -1 (left, +X) .. 1 (right)
   auto col_phi = [&](int k) { return kPi + across(k) * kHairHalfWidth; };
   auto tip_y = [&](int k) { return y_end - 0.06 * (1 - across(k) * across(k)); };
@@ -200,8 +199,8 @@ SynthMesh make_long_hair(const Anatomy& A, const std::vector<float>& verts, cons
       m.rest.insert(m.rest.end(), {float(ax + r * std::sin(phi)), float(y), float(az + r * std::cos(phi))});
       const double s = double(i) / (R - 1);
       m.vt.insert(m.vt.end(), {float(double(k) / C), float(kPonytailV0 + (kPonytailV1 - kPonytailV0) * s)});
-      const double head = smoothstep(yn, yh, y), rest = 1 - head;
-      const double neck = rest * smoothstep(y9, yn, y), low = rest - neck;
+      const double head = smoothstep(yn - 0.04, yh, y), rest = 1 - head;
+      const double neck = rest * smoothstep(y9 - 0.03, yn, y), low = rest - neck;
       const double sp3 = low * smoothstep(y6, y9, y), sp2 = low - sp3;
       const double collar = 0.4 * smoothstep(0.4, 1.0, std::abs(across(k))) * sp3;
       add_weight(m, kHeadJoint, head);
@@ -266,7 +265,8 @@ SynthSubject make_coat_subject(const BodyModel& body, const SynthSubjectOptions&
   spec.flare = 0.16;
   spec.pleat_depth = 0.012;
   spec.pleats = 10;
-  spec.legs = 0.8;
+  spec.legs = 0.65;
+  spec.leg_blend = 0.2;  // long tails: spread the thighs' difference over the whole width
   spec.rings = 28;
   SkirtFrame sf{0.3, 0.8};
   SynthMesh tails = make_skirt(spec, A, s.rest_verts, body.faces, groups, &sf);
