@@ -106,6 +106,7 @@ struct SkirtSpec {
   double flare = 0.10;        // extra radius at the hem (grows as t^1.5)
   double pleat_depth = 0.018, pleats = kSkirtPleats;
   double legs = 0.7;          // share of the hips' rotation at the hem
+  double legs_full_at = 1.0;  // t (0 top, 1 hem) where the hips' share reaches `legs`
   double leg_blend = 0.06;    // half-width (m) of the left/right thigh blend across the middle
   int rings = kSkirtRings, columns = kSkirtColumns;
 };

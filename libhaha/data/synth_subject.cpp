@@ -809,7 +809,7 @@ SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<
   m.w_start.push_back(0);
   for (int i = 0; i < R; ++i) {
     const double t = double(i) / (R - 1);
-    const double legs = spec.legs * smoothstep(0.0, 1.0, t);
+    const double legs = spec.legs * smoothstep(0.0, spec.legs_full_at, t);
     for (int k = 0; k <= C; ++k) {
       const double phi = col_phi(k), r = rad[size_t(i) * C + (k % C)];
       const V3 p(pel.x + r * std::sin(phi), ring_y(i), pel.z + r * std::cos(phi));

@@ -265,7 +265,8 @@ SynthSubject make_coat_subject(const BodyModel& body, const SynthSubjectOptions&
   spec.flare = 0.16;
   spec.pleat_depth = 0.012;
   spec.pleats = 10;
-  spec.legs = 0.65;
+  spec.legs = 0.9;
+  spec.legs_full_at = 0.6;  // by the knees: bent knees stay inside the tails
   spec.leg_blend = 0.2;  // long tails: spread the thighs' difference over the whole width
   spec.rings = 28;
   SkirtFrame sf{0.3, 0.8};
