@@ -38,7 +38,11 @@ for kv in "--size=$size" "--frames=$frames" "--test-frames=$test_frames" "--seed
 done
 [ -x "$haha" ] || die "$haha: not built (cmake --build build --target haha, or give --haha)"
 
+created=0
+[ -d "$out" ] || created=1
 mkdir -p "$out" || die "$out: cannot create the folder"
+# A failure before anything is in OUT leaves no empty folder behind.
+trap '[ "$created" = 1 ] && rmdir "$out" 2>/dev/null; true' EXIT
 start=$SECONDS
 for subject in 1 2; do
   echo "subject $subject -> $out/subject$subject"
