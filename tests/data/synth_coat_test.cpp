@@ -31,19 +31,20 @@ const BodyModel& low_body() {
   return b;
 }
 
+// Built on first use only (ctest runs every test in its own process).
 const SynthSubject& subject(int which) {
-  static const SynthSubject s[2] = {[] {
-                                      SynthSubjectOptions o;
-                                      o.texture_size = 128;
-                                      return make_synth_subject(low_body(), o);
-                                    }(),
-                                    [] {
-                                      SynthSubjectOptions o;
-                                      o.texture_size = 128;
-                                      o.subject = 2;
-                                      return make_synth_subject(low_body(), o);
-                                    }()};
-  return s[which - 1];
+  auto make = [](int n) {
+    SynthSubjectOptions o;
+    o.texture_size = 128;
+    o.subject = n;
+    return make_synth_subject(low_body(), o);
+  };
+  if (which == 1) {
+    static const SynthSubject s = make(1);
+    return s;
+  }
+  static const SynthSubject s = make(2);
+  return s;
 }
 
 const SynthMesh& mesh(const std::string& name) {
