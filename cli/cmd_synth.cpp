@@ -1,5 +1,6 @@
 // `haha synth`: the embedded sample. A clothed synthetic subject (textured skin and
-// clothes, plus hair, ponytail and skirt that leave the body surface) rendered as a
+// clothes, plus hair, ponytail and skirt that leave the body surface; or, with
+// --subject 2, long loose hair and a loose long coat on another body shape) rendered as a
 // monocular video with masks, a static camera and per-frame SMPL-X fits, in the native
 // dataset format (data/synth_subject.h, data/dataset.h).
 #include <chrono>
@@ -29,6 +30,13 @@ HAHA_COMMAND(synth) {
   sub->add_option("--size", a->o.size, "image side in pixels")->capture_default_str();
   sub->add_option("--frames", a->o.train_frames, "training frames (one full turn)")->capture_default_str();
   sub->add_option("--test-frames", a->o.test_frames, "test frames (novel poses)")->capture_default_str();
+  sub->add_option("--subject", a->o.subject,
+                  "1: the default sample (hair shell, ponytail, skirt); 2: the harder benchmark subject (another "
+                  "body shape, long loose hair, a loose long coat, view-dependent sheen)")
+      ->capture_default_str();
+  sub->add_option("--view-shading", a->o.view_shading,
+                  "strength in [0, 2] of the view-dependent sheen and highlight on hair and garments (a texture "
+                  "cannot hold it; default: 0 for subject 1, 0.5 for subject 2)");
   sub->add_option("--seed", a->o.seed, "subject colours, motion details, fit noise, procedural body")
       ->capture_default_str();
   sub->add_option("--fit-noise", a->fit_noise,

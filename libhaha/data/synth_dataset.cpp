@@ -39,6 +39,10 @@ void validate_synth_options(const SynthOptions& o) {
   if (!std::isfinite(o.camera_distance) || o.camera_distance < 1 || o.camera_distance > 100)
     fail("--camera-distance", "must be in [1, 100] metres");
   if (o.sheet_train < 0 || o.sheet_test < 0) fail("contact sheet", "frame counts must be >= 0");
+  if (o.subject != 1 && o.subject != 2)
+    fail("--subject", std::to_string(o.subject) + " is not a subject (expected 1 or 2)");
+  if (!(o.view_shading == -1 || (o.view_shading >= 0 && o.view_shading <= 2)))
+    fail("--view-shading", "must be in [0, 2] (-1: the subject's default)");
 }
 
 BodyModel synth_body(const std::string& path, BodyResolution resolution, uint64_t seed) {
@@ -75,12 +79,15 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
 
   SynthSubjectOptions so;
   so.seed = opt.seed;
+  so.subject = opt.subject;
   so.texture_size = opt.texture_size > 0 ? opt.texture_size : (opt.size <= 256 ? 512 : (opt.size <= 512 ? 1024 : 2048));
   const SynthSubject subject = make_synth_subject(body, so);
   say("subject: " + std::to_string(subject.meshes.size()) + " garment meshes, texture " + std::to_string(so.texture_size) +
       " px");
   const SynthMotion motion = make_synth_motion(body, subject, opt.train_frames, opt.test_frames, opt.seed);
   SynthRenderer renderer(body, subject);
+  const double shading = opt.view_shading < 0 ? default_view_shading(opt.subject) : opt.view_shading;
+  renderer.set_view_shading(shading);  // before the per-thread copies are made
 
   std::vector<SmplxParams> truth = motion.train;
   truth.insert(truth.end(), motion.test.begin(), motion.test.end());
@@ -105,10 +112,16 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
     fs::remove_all(stage, ec);
   }
   DirGuard guard(stage.string());
-  char src[256];
-  std::snprintf(src, sizeof src,
-                "haha synth: procedural clothed subject (hair, ponytail, skirt), seed %llu, fit noise %g rad / %g m",
-                static_cast<unsigned long long>(opt.seed), opt.fit_noise.pose, opt.fit_noise.transl);
+  char src[320];
+  if (opt.subject == 1)
+    std::snprintf(src, sizeof src,
+                  "haha synth: procedural clothed subject (hair, ponytail, skirt), seed %llu, fit noise %g rad / %g m",
+                  static_cast<unsigned long long>(opt.seed), opt.fit_noise.pose, opt.fit_noise.transl);
+  else
+    std::snprintf(src, sizeof src,
+                  "haha synth: procedural clothed subject 2 (long hair, coat), seed %llu, fit noise %g rad / %g m, "
+                  "view shading %g",
+                  static_cast<unsigned long long>(opt.seed), opt.fit_noise.pose, opt.fit_noise.transl, shading);
   DatasetWriter writer(stage.string(), opt.size, opt.size, 30.0, "neutral",
                        std::string(src) + "; body: " + (body.source.empty() ? std::string("?") : body.source));
   writer.set_premultiplied(1);  // rendered on black, box-filtered coverage as the mask
@@ -160,7 +173,7 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
 
   ContactSheetOptions co;
   co.columns = 10;
-  co.title = "HAHA SYNTH: SEED " + std::to_string(opt.seed) + ", " + std::to_string(opt.size) + " PX, " +
+  co.title = std::string(opt.subject == 1 ? "HAHA SYNTH" : "HAHA SYNTH SUBJECT 2") + ": SEED " + std::to_string(opt.seed) + ", " + std::to_string(opt.size) + " PX, " +
              std::to_string(opt.train_frames) + " TRAIN (TURNING) + " + std::to_string(opt.test_frames) +
              " TEST (NOVEL POSES)";
   write_contact_sheet((stage / "contact_sheet.png").string(), tiles, co);

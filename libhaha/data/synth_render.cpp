@@ -4,21 +4,40 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "data/synth_internal.h"
 #include "data/synth_subject.h"
 #include "render/texture.h"
 
 namespace haha {
 
-namespace {
+namespace synth {
 
-unsigned part_of(const SynthMesh& m) {
-  if (m.name == "hair") return kSynthHair;
-  if (m.name == "ponytail") return kSynthPonytail;
-  if (m.name == "skirt") return kSynthSkirt;
-  return 0;
+V3 view_shade(V3 c, V3 n, V3 v, double s) {
+  if (!(s > 0)) return c;
+  if (dot(n, v) < 0) n = -1.0 * n;
+  static const V3 light = unit(V3(0.35, 0.75, 0.55));  // above, in front, to the subject's left
+  const double nv = clamp(dot(n, v), 0.0, 1.0);
+  const double rim = std::pow(1 - nv, 3);
+  const double spec = std::pow(std::max(0.0, dot(n, unit(light + v))), 24);
+  V3 out = (1 + s * (0.6 * rim - 0.15)) * c + V3(1, 1, 1) * (0.35 * s * spec);
+  for (int k = 0; k < 3; ++k) out[k] = clamp(out[k], 0.0, 1.0);
+  return out;
 }
 
+}  // namespace synth
+
+namespace {
+
+unsigned part_of(const SynthMesh& m) { return m.part; }
+
 }  // namespace
+
+double default_view_shading(int subject) { return subject == 2 ? 0.5 : 0.0; }
+
+void SynthRenderer::set_view_shading(double strength) {
+  if (!(strength >= 0 && strength <= 2)) fail("--view-shading", "must be in [0, 2]");
+  view_shading_ = strength;
+}
 
 SynthRenderer::SynthRenderer(const BodyModel& body, const SynthSubject& subject)
     : body_(body), subject_(subject), lbs_(body) {
@@ -77,12 +96,12 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
     int vert_off = 0;
     if (parts & kSynthBody) {
       faces_.assign(body_.faces.begin(), body_.faces.end());
-      ranges_.push_back({0, body_.num_faces, 0, body_.vt.data(), body_.ft.data()});
+      ranges_.push_back({0, body_.num_faces, 0, 0.0f, body_.vt.data(), body_.ft.data()});
       vert_off = body_.num_verts;
     }
     for (const SynthMesh& m : subject_.meshes) {
       if (!(parts & part_of(m))) continue;
-      ranges_.push_back({int(faces_.size() / 3), m.num_faces(), m.texture, m.vt.data(), m.ft.data()});
+      ranges_.push_back({int(faces_.size() / 3), m.num_faces(), m.texture, m.gloss, m.vt.data(), m.ft.data()});
       for (int32_t i : m.faces) faces_.push_back(i + vert_off);
       vert_off += m.num_verts();
     }
@@ -99,6 +118,25 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
   big.cx = cam.cx * ss;  // pixel-edge convention: continuous coordinates scale exactly
   big.cy = cam.cy * ss;
   rasterize_mesh(big, MeshView{verts.data(), int(verts.size() / 3), faces_.data(), int(faces_.size() / 3)}, raster_);
+
+  // View-dependent shading: posed vertex normals of the glossy ranges, the camera centre.
+  const bool shading = view_shading_ > 0;
+  Vec3f eye(0.f, 0.f, 0.f);
+  if (shading) {
+    normals_.assign(verts.size(), 0.0f);
+    for (const Range& R : ranges_) {
+      if (!(R.gloss > 0)) continue;
+      for (int f = R.first_face; f < R.first_face + R.num_faces; ++f) {
+        const int32_t* t = &faces_[3 * size_t(f)];
+        const Vec3f a = Vec3f::load(&verts[3 * size_t(t[0])]), b = Vec3f::load(&verts[3 * size_t(t[1])]),
+                    c = Vec3f::load(&verts[3 * size_t(t[2])]);
+        const Vec3f fn = cross(b - a, c - a);
+        for (int k = 0; k < 3; ++k)
+          for (int d = 0; d < 3; ++d) normals_[3 * size_t(t[k]) + d] += fn[d];
+      }
+    }
+    eye = -(transpose(cam.R) * cam.t);
+  }
 
   const TextureView tex[2] = {
       {subject_.body_texture.width, subject_.body_texture.height, 3, subject_.body_texture.data.data()},
@@ -129,6 +167,18 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
           }
           float c[3];
           bilinear_sample(tex[R.texture], u, v, c);
+          if (shading && R.gloss > 0) {
+            synth::V3 n(0, 0, 0), x(0, 0, 0);
+            for (int i = 0; i < 3; ++i) {
+              const size_t vi = size_t(faces_[3 * size_t(t) + i]);
+              n += double(b[i]) * synth::V3(normals_[3 * vi], normals_[3 * vi + 1], normals_[3 * vi + 2]);
+              x += double(b[i]) * synth::V3(verts[3 * vi], verts[3 * vi + 1], verts[3 * vi + 2]);
+            }
+            const synth::V3 view = synth::unit(synth::V3(eye.x, eye.y, eye.z) - x);
+            const synth::V3 o = synth::view_shade(synth::V3(c[0], c[1], c[2]), synth::unit(n), view,
+                                                  view_shading_ * R.gloss);
+            for (int k = 0; k < 3; ++k) c[k] = float(o[k]);
+          }
           for (int k = 0; k < 3; ++k) acc[k] += c[k];
           ++covered;
         }

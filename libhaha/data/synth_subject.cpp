@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include "core/error.h"
@@ -353,9 +354,8 @@ V3 shade_ponytail(const Palette& P, double s, double theta) {
 // of shade(face, barycentrics); texels outside every chart are filled from their
 // neighbours (a gutter, so bilinear sampling at chart borders stays clean).
 
-template <class Shade>
 void paint_atlas(Image& tex, const float* vt, const int32_t* ft, const std::vector<int32_t>& faces_to_paint, int ss,
-                 Shade&& shade) {
+                 const std::function<V3(int, double, double, double)>& shade) {
   const int W = tex.width, H = tex.height, GW = W * ss, GH = H * ss;
   std::vector<int32_t> face_of(size_t(GW) * GH, -1);
   std::vector<float> bary(size_t(GW) * GH * 2, 0.f);
@@ -451,7 +451,7 @@ std::vector<V3> vertex_normals(const std::vector<float>& verts, const std::vecto
 }
 
 // Per-vertex skinning-group sums.
-static std::vector<std::array<double, kGroups>> vertex_groups(const BodyModel& body) {
+std::vector<std::array<double, kGroups>> vertex_groups(const BodyModel& body) {
   std::vector<std::array<double, kGroups>> g(size_t(body.num_verts));
   for (int v = 0; v < body.num_verts; ++v) {
     g[v].fill(0);
@@ -460,12 +460,12 @@ static std::vector<std::array<double, kGroups>> vertex_groups(const BodyModel& b
   return g;
 }
 
-static void add_weight(SynthMesh& m, int joint, double w) {
+void add_weight(SynthMesh& m, int joint, double w) {
   if (w <= 1e-6) return;
   m.w_joint.push_back(joint);
   m.w_value.push_back(float(w));
 }
-static void end_vertex(SynthMesh& m) {
+void end_vertex(SynthMesh& m) {
   // Normalise this vertex's weights (the entries since the previous w_start).
   const int b = m.w_start.back(), e = int(m.w_joint.size());
   double s = 0;
@@ -491,8 +491,8 @@ static bool ray_crosses(V3 o, V3 d, V3 a, V3 b, V3 c) {
 // Marks the candidate vertices that lie inside another connected component of the mesh
 // (the procedural body is a union of overlapping closed parts: e.g. the top of the
 // torso is tucked inside the head). Parity of ray crossings, per component.
-static std::vector<uint8_t> inside_other_part(const std::vector<float>& verts, const std::vector<int32_t>& faces,
-                                              const std::vector<int>& candidates) {
+std::vector<uint8_t> inside_other_part(const std::vector<float>& verts, const std::vector<int32_t>& faces,
+                                       const std::vector<int>& candidates) {
   const int V = int(verts.size() / 3), F = int(faces.size() / 3);
   std::vector<int> parent(V);
   for (int i = 0; i < V; ++i) parent[i] = i;
@@ -537,30 +537,32 @@ static std::vector<uint8_t> inside_other_part(const std::vector<float>& verts, c
   return inside;
 }
 
-// Hair shell: scalp vertices inside the hairline (and not hidden inside another body
-// part), pushed out along the normal by hair_thickness; the faces whose three corners
-// are all kept. Body UVs and texture.
-static SynthMesh make_hair(const BodyModel& body, const Anatomy& A, const std::vector<float>& rest,
-                           const std::vector<V3>& normals, const std::vector<std::array<double, kGroups>>& groups) {
+// A shell over part of the body: the vertices with offset(v, p) > 1e-4 m (and not hidden
+// inside another body part), pushed out along the rest normal by that offset; the faces
+// whose three corners are all kept. Body UVs and texture, the body's skinning weights.
+// `source` (optional) receives the body vertex of every shell vertex.
+SynthMesh make_shell(const BodyModel& body, const std::vector<float>& rest, const std::vector<V3>& normals,
+                     const std::function<double(int, V3)>& offset, std::vector<int>* source) {
   const int V = body.num_verts;
   std::vector<int32_t> remap(V, -1);
   SynthMesh m;
-  m.name = "hair";
   m.texture = 0;
   m.w_start.push_back(0);
   std::vector<int> cand;
+  std::vector<double> off;
   for (int v = 0; v < V; ++v) {
     const V3 p(rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]);
-    if (groups[v][gHead] >= 0.5 && norm(p - A.J[kHeadJoint]) < 0.3 && hair_thickness(A, p) > 1e-4) cand.push_back(v);
+    const double o = offset(v, p);
+    if (o > 1e-4) cand.push_back(v), off.push_back(o);
   }
   const std::vector<uint8_t> hidden = inside_other_part(rest, body.faces, cand);
   for (size_t i = 0; i < cand.size(); ++i) {
     if (hidden[i]) continue;
     const int v = cand[i];
     const V3 p(rest[3 * v], rest[3 * v + 1], rest[3 * v + 2]);
-    const double th = hair_thickness(A, p);
     remap[v] = m.num_verts();
-    const V3 q = p + th * normals[v];
+    if (source) source->push_back(v);
+    const V3 q = p + off[i] * normals[v];
     m.rest.insert(m.rest.end(), {float(q.x), float(q.y), float(q.z)});
     for (int j = 0; j < kNumJoints; ++j) add_weight(m, j, body.weights[size_t(v) * kNumJoints + j]);
     end_vertex(m);
@@ -572,6 +574,19 @@ static SynthMesh make_hair(const BodyModel& body, const Anatomy& A, const std::v
     m.faces.insert(m.faces.end(), {a, b, c});
     m.ft.insert(m.ft.end(), {body.ft[3 * f], body.ft[3 * f + 1], body.ft[3 * f + 2]});
   }
+  return m;
+}
+
+// Hair shell: scalp vertices inside the hairline, offset by hair_thickness.
+SynthMesh make_hair(const BodyModel& body, const Anatomy& A, const std::vector<float>& rest,
+                    const std::vector<V3>& normals, const std::vector<std::array<double, kGroups>>& groups) {
+  SynthMesh m = make_shell(body, rest, normals, [&](int v, V3 p) {
+    if (!(groups[v][gHead] >= 0.5 && norm(p - A.J[kHeadJoint]) < 0.3)) return 0.0;
+    return hair_thickness(A, p);
+  });
+  m.name = "hair";
+  m.part = kSynthHair;
+  m.gloss = kHairGloss;
   return m;
 }
 
@@ -653,6 +668,8 @@ static SynthMesh make_ponytail(const Anatomy& A, const std::vector<float>& rest,
   const V3 anchor(head.x, ya, zmin - 0.012);
   SynthMesh m;
   m.name = "ponytail";
+  m.part = kSynthPonytail;
+  m.gloss = kHairGloss;
   m.texture = 1;
   auto centre = [&](double s) { return anchor + V3(0, 0.02 * s - 0.19 * s * s, -0.08 * (1 - (1 - s) * (1 - s))); };
   auto radius = [&](double s) {
@@ -671,15 +688,54 @@ static SynthMesh make_ponytail(const Anatomy& A, const std::vector<float>& rest,
   return m;
 }
 
-// Pleated, flared skirt from the waist to above the knees, outside the body everywhere
-// (per-azimuth body extent + margin), skinned to pelvis and hips.
-static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, const std::vector<int32_t>& faces,
-                            const std::vector<std::array<double, kGroups>>& groups, SkirtFrame* frame) {
+// Farthest crossing, per (plane, direction), of the ray from the vertical axis through
+// (axis_x, axis_z) with the horizontal cross-section of triangles `tris` of (verts, faces)
+// at plane_y[i]; direction k is the azimuth phis[k] (0 = +Z, pi/2 = +X). 0 where the ray
+// meets nothing. Result (planes x directions), row-major.
+std::vector<double> radial_extent(const std::vector<float>& rest, const std::vector<int32_t>& faces,
+                                  const std::vector<int>& tris, double axis_x, double axis_z,
+                                  const std::vector<double>& plane_y, const std::vector<double>& phis) {
+  const int C = int(phis.size());
+  std::vector<double> ext(plane_y.size() * phis.size(), 0.0);
+  parallel_for(int64_t(plane_y.size()), [&](int64_t i) {
+    const double y = plane_y[size_t(i)];
+    double* row = &ext[size_t(i) * C];
+    for (int f : tris) {
+      // Segment where the triangle crosses the plane (x, z relative to the axis).
+      double seg[2][2];
+      int n = 0;
+      for (int k = 0; k < 3 && n < 2; ++k) {
+        const int ia = faces[3 * f + k], ib = faces[3 * f + (k + 1) % 3];
+        const double ya = rest[3 * ia + 1], yb = rest[3 * ib + 1];
+        if ((ya - y) * (yb - y) > 0 || ya == yb) continue;
+        const double t = (y - ya) / (yb - ya);
+        seg[n][0] = rest[3 * ia] + t * (rest[3 * ib] - rest[3 * ia]) - axis_x;
+        seg[n][1] = rest[3 * ia + 2] + t * (rest[3 * ib + 2] - rest[3 * ia + 2]) - axis_z;
+        ++n;
+      }
+      if (n < 2) continue;
+      const double ex = seg[1][0] - seg[0][0], ez = seg[1][1] - seg[0][1];
+      for (int k = 0; k < C; ++k) {
+        const double dx = std::sin(phis[size_t(k)]), dz = std::cos(phis[size_t(k)]);
+        const double den = dx * ez - dz * ex;  // cross(d, e)
+        if (std::abs(den) < 1e-15) continue;
+        const double t = (seg[0][0] * ez - seg[0][1] * ex) / den;   // cross(a, e) / cross(d, e)
+        const double sp = (seg[0][0] * dz - seg[0][1] * dx) / den;  // cross(a, d) / cross(d, e)
+        if (t > 0 && sp >= 0 && sp <= 1) row[k] = std::max(row[k], t);
+      }
+    }
+  });
+  return ext;
+}
+
+// A flared skirt around the pelvis axis from spec.y_top down to spec.y_hem, outside the
+// body everywhere (per-azimuth body extent + clearance), skinned to pelvis and hips.
+SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<float>& rest,
+                     const std::vector<int32_t>& faces, const std::vector<std::array<double, kGroups>>& groups,
+                     SkirtFrame* frame) {
   const V3 pel = A.J[0];
-  const double y_top = A.waist_y;
-  const double hip_y = 0.5 * (A.J[1].y + A.J[2].y), knee_y = 0.5 * (A.J[4].y + A.J[5].y);
-  const double y_hem = hip_y + 0.72 * (knee_y - hip_y);
-  const int R = kSkirtRings, C = kSkirtColumns;
+  const double y_top = spec.y_top, y_hem = spec.y_hem;
+  const int R = spec.rings, C = spec.columns;
   auto ring_y = [&](int i) { return y_top + (y_hem - y_top) * double(i) / (R - 1); };
   auto col_phi = [&](int k) { return kPi + 2 * kPi * k / C; };  // seam at the back
 
@@ -699,45 +755,23 @@ static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, co
     }
     if (!skip && yhi >= y_hem - band && ylo <= y_top + band) tris.push_back(int(f / 3));
   }
+  // Bin k covers the azimuths around col_phi(k) + half a column.
+  std::vector<double> planes, phis;
+  for (int i = 0; i < R; ++i)
+    for (int q = -2; q <= 2; ++q) planes.push_back(ring_y(i) + 0.25 * q * band);
+  for (int k = 0; k < C; ++k) phis.push_back(col_phi(k) + kPi / C);
+  const std::vector<double> cut = radial_extent(rest, faces, tris, pel.x, pel.z, planes, phis);
   std::vector<double> ext(size_t(R) * C, 0.0);
-  parallel_for(R, [&](int64_t i) {
-    for (int q = -2; q <= 2; ++q) {
-      const double y = ring_y(int(i)) + 0.25 * q * band;
-      for (int f : tris) {
-        // Segment where the triangle crosses the plane (x, z relative to the axis).
-        double seg[2][2];
-        int n = 0;
-        for (int k = 0; k < 3 && n < 2; ++k) {
-          const int ia = faces[3 * f + k], ib = faces[3 * f + (k + 1) % 3];
-          const double ya = rest[3 * ia + 1], yb = rest[3 * ib + 1];
-          if ((ya - y) * (yb - y) > 0 || ya == yb) continue;
-          const double t = (y - ya) / (yb - ya);
-          seg[n][0] = rest[3 * ia] + t * (rest[3 * ib] - rest[3 * ia]) - pel.x;
-          seg[n][1] = rest[3 * ia + 2] + t * (rest[3 * ib + 2] - rest[3 * ia + 2]) - pel.z;
-          ++n;
-        }
-        if (n < 2) continue;
-        const double ex = seg[1][0] - seg[0][0], ez = seg[1][1] - seg[0][1];
-        for (int k = 0; k < C; ++k) {
-          // Bin k covers the azimuths around col_phi(k) + half a column.
-          const double phi = col_phi(k) + kPi / C;
-          const double dx = std::sin(phi), dz = std::cos(phi);
-          const double den = dx * ez - dz * ex;  // cross(d, e)
-          if (std::abs(den) < 1e-15) continue;
-          const double t = (seg[0][0] * ez - seg[0][1] * ex) / den;   // cross(a, e) / cross(d, e)
-          const double sp = (seg[0][0] * dz - seg[0][1] * dx) / den;  // cross(a, d) / cross(d, e)
-          if (t > 0 && sp >= 0 && sp <= 1) ext[size_t(i) * C + k] = std::max(ext[size_t(i) * C + k], t);
-        }
-      }
-    }
-  });
-  // Angular dilation (+-2 bins), then the required radius (1.2 cm clearance).
+  for (int i = 0; i < R; ++i)
+    for (int q = 0; q < 5; ++q)
+      for (int k = 0; k < C; ++k) ext[size_t(i) * C + k] = std::max(ext[size_t(i) * C + k], cut[(size_t(i) * 5 + q) * C + k]);
+  // Angular dilation (+-2 bins), then the required radius (body + clearance).
   std::vector<double> req(size_t(R) * C);
   for (int i = 0; i < R; ++i)
     for (int k = 0; k < C; ++k) {
       double m = 0;
       for (int dk = -2; dk <= 2; ++dk) m = std::max(m, ext[size_t(i) * C + (k + dk + C) % C]);
-      req[size_t(i) * C + k] = m + 0.012;
+      req[size_t(i) * C + k] = m + spec.clearance;
     }
   // Monotone flare down the skirt, circular smoothing, clearance re-imposed, pleats out.
   std::vector<double> rad(size_t(R) * C);
@@ -746,7 +780,7 @@ static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, co
     for (int i = 0; i < R; ++i) {
       const double t = double(i) / (R - 1);
       run = std::max(run, req[size_t(i) * C + k]);
-      rad[size_t(i) * C + k] = run + 0.10 * std::pow(t, 1.5);
+      rad[size_t(i) * C + k] = run + spec.flare * std::pow(t, 1.5);
     }
   }
   for (int i = 0; i < R; ++i) {
@@ -758,7 +792,7 @@ static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, co
     }
     for (int k = 0; k < C; ++k) {
       const double t = double(i) / (R - 1);
-      const double pleat = 0.018 * t * (0.5 + 0.5 * std::cos(kSkirtPleats * col_phi(k)));
+      const double pleat = spec.pleat_depth * t * (0.5 + 0.5 * std::cos(spec.pleats * col_phi(k)));
       rad[size_t(i) * C + k] = std::max(sm[k], req[size_t(i) * C + k]) + pleat;
     }
   }
@@ -768,18 +802,20 @@ static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, co
   frame->length = y_top - y_hem;
 
   SynthMesh m;
-  m.name = "skirt";
+  m.name = spec.name;
+  m.part = spec.part;
+  m.gloss = spec.gloss;
   m.texture = 1;
   m.w_start.push_back(0);
   for (int i = 0; i < R; ++i) {
     const double t = double(i) / (R - 1);
-    const double legs = 0.7 * smoothstep(0.0, 1.0, t);
+    const double legs = spec.legs * smoothstep(0.0, spec.legs_full_at, t);
     for (int k = 0; k <= C; ++k) {
       const double phi = col_phi(k), r = rad[size_t(i) * C + (k % C)];
       const V3 p(pel.x + r * std::sin(phi), ring_y(i), pel.z + r * std::cos(phi));
       m.rest.insert(m.rest.end(), {float(p.x), float(p.y), float(p.z)});
       m.vt.insert(m.vt.end(), {float(double(k) / C), float(kSkirtV0 + (kSkirtV1 - kSkirtV0) * t)});
-      const double sl = smoothstep(-0.06, 0.06, p.x - pel.x);  // left thigh share
+      const double sl = smoothstep(-spec.leg_blend, spec.leg_blend, p.x - pel.x);  // left thigh share
       add_weight(m, 0, 1 - legs);
       add_weight(m, 1, legs * sl);
       add_weight(m, 2, legs * (1 - sl));
@@ -798,42 +834,20 @@ static SynthMesh make_skirt(const Anatomy& A, const std::vector<float>& rest, co
   return m;
 }
 
-}  // namespace synth
+void shape_rest(const BodyModel& body, SynthSubject& s) {
+  Lbs<float> lbs(body);
+  SmplxParams rest_pose;
+  rest_pose.betas = s.betas;
+  s.rest_verts.resize(size_t(body.num_verts) * 3);
+  s.rest_joints.resize(size_t(kNumJoints) * 3);
+  lbs.forward(rest_pose, s.rest_verts.data(), s.rest_joints.data(), nullptr);
+}
 
-using namespace synth;
-
-SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions& opt) {
-  const std::string where = body.source.empty() ? std::string("body model") : body.source;
-  if (body.vt.empty() || body.ft.size() != body.faces.size())
-    fail(where, "vt/ft: the synthetic subject needs a body model with a UV map");
-  if (opt.texture_size < 16 || opt.texture_size > 8192)
-    fail("texture size", std::to_string(opt.texture_size) + " is outside [16, 8192]");
-  for (int32_t t : body.ft)
-    if (t < 0 || t >= body.num_uv()) fail(where, "ft: UV index " + std::to_string(t) + " out of range");
-
-  SynthSubject s;
-  const int nb = std::min(10, body.num_shape);
-  s.betas.assign(size_t(nb), 0.0f);
-  {
-    Lbs<float> lbs(body);
-    SmplxParams rest_pose;
-    rest_pose.betas = s.betas;
-    s.rest_verts.resize(size_t(body.num_verts) * 3);
-    s.rest_joints.resize(size_t(kNumJoints) * 3);
-    lbs.forward(rest_pose, s.rest_verts.data(), s.rest_joints.data(), nullptr);
-  }
-  const Anatomy A = make_anatomy(s.rest_joints, s.rest_verts);
-  const Palette P = make_palette(opt.seed);
-  const std::vector<V3> normals = vertex_normals(s.rest_verts, body.faces);
-  const auto groups = vertex_groups(body);
-
-  if (opt.hair) s.meshes.push_back(make_hair(body, A, s.rest_verts, normals, groups));
-  if (opt.ponytail) s.meshes.push_back(make_ponytail(A, s.rest_verts, groups));
-  SkirtFrame sf{0.25, 0.4};
-  if (opt.skirt) s.meshes.push_back(make_skirt(A, s.rest_verts, body.faces, groups, &sf));
-
-  // Body atlas: every face, shaded from its interpolated rest point.
-  const int S = opt.texture_size, ss = S <= 1024 ? 2 : 1;
+void paint_body_texture(const BodyModel& body, SynthSubject& s, const std::vector<V3>& normals,
+                        const std::vector<std::array<double, kGroups>>& groups, int S,
+                        const std::function<V3(V3, V3, const double*)>& shade) {
+  // Every face, shaded from its interpolated rest point.
+  const int ss = S <= 1024 ? 2 : 1;
   s.body_texture = Image(S, S, 3);
   std::vector<int32_t> all(size_t(body.num_faces));
   for (int f = 0; f < body.num_faces; ++f) all[f] = f;
@@ -844,28 +858,72 @@ SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions
     const V3 n = unit(b0 * normals[i0] + b1 * normals[i1] + b2 * normals[i2]);
     double g[kGroups];
     for (int k = 0; k < kGroups; ++k) g[k] = b0 * groups[i0][k] + b1 * groups[i1][k] + b2 * groups[i2][k];
-    return shade_body(A, P, p, n, g);
+    return shade(p, n, g);
   });
+}
 
-  // Garment atlas: charts are analytic rectangles, so every texel is shaded directly.
+void paint_garment_texture(Image& tex, int S, const std::function<V3(double, double)>& shade) {
+  // Charts are analytic rectangles, so every texel is shaded directly (2 x 2 samples).
   const int GW = S, GH = std::max(8, S / 2);
-  s.garment_texture = Image(GW, GH, 3);
+  tex = Image(GW, GH, 3);
   parallel_for(GH, [&](int64_t y) {
     for (int x = 0; x < GW; ++x) {
       V3 acc(0, 0, 0);
       for (int sy = 0; sy < 2; ++sy)
         for (int sx = 0; sx < 2; ++sx) {
           const double u = (x + 0.25 + 0.5 * sx) / GW, v = 1 - (double(y) + 0.25 + 0.5 * sy) / GH;
-          if (v > 0.5 * (kSkirtV1 + kPonytailV0)) {
-            const double t = clamp((v - kSkirtV0) / (kSkirtV1 - kSkirtV0), 0.0, 1.0);
-            acc += shade_skirt(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length);
-          } else {
-            const double sp = clamp((v - kPonytailV0) / (kPonytailV1 - kPonytailV0), 0.0, 1.0);
-            acc += shade_ponytail(P, sp, 2 * kPi * u);
-          }
+          acc += shade(u, v);
         }
-      for (int c = 0; c < 3; ++c) s.garment_texture.data[3 * (size_t(y) * GW + x) + c] = float(clamp(acc[c] / 4, 0.0, 1.0));
+      for (int c = 0; c < 3; ++c) tex.data[3 * (size_t(y) * GW + x) + c] = float(clamp(acc[c] / 4, 0.0, 1.0));
     }
+  });
+}
+
+}  // namespace synth
+
+using namespace synth;
+
+SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions& opt) {
+  const std::string where = body.source.empty() ? std::string("body model") : body.source;
+  if (opt.subject != 1 && opt.subject != 2)
+    fail("--subject", std::to_string(opt.subject) + " is not a subject (expected 1 or 2)");
+  if (body.vt.empty() || body.ft.size() != body.faces.size())
+    fail(where, "vt/ft: the synthetic subject needs a body model with a UV map");
+  if (opt.texture_size < 16 || opt.texture_size > 8192)
+    fail("texture size", std::to_string(opt.texture_size) + " is outside [16, 8192]");
+  for (int32_t t : body.ft)
+    if (t < 0 || t >= body.num_uv()) fail(where, "ft: UV index " + std::to_string(t) + " out of range");
+  if (opt.subject == 2) return make_coat_subject(body, opt);
+
+  SynthSubject s;
+  s.betas.assign(size_t(std::min(10, body.num_shape)), 0.0f);
+  shape_rest(body, s);
+  const Anatomy A = make_anatomy(s.rest_joints, s.rest_verts);
+  const Palette P = make_palette(opt.seed);
+  const std::vector<V3> normals = vertex_normals(s.rest_verts, body.faces);
+  const auto groups = vertex_groups(body);
+
+  if (opt.hair) s.meshes.push_back(make_hair(body, A, s.rest_verts, normals, groups));
+  if (opt.ponytail) s.meshes.push_back(make_ponytail(A, s.rest_verts, groups));
+  SkirtFrame sf{0.25, 0.4};
+  if (opt.skirt) {
+    SkirtSpec spec;
+    spec.y_top = A.waist_y;
+    const double hip_y = 0.5 * (A.J[1].y + A.J[2].y), knee_y = 0.5 * (A.J[4].y + A.J[5].y);
+    spec.y_hem = hip_y + 0.72 * (knee_y - hip_y);
+    s.meshes.push_back(make_skirt(spec, A, s.rest_verts, body.faces, groups, &sf));
+  }
+
+  paint_body_texture(body, s, normals, groups, opt.texture_size,
+                     [&](V3 p, V3 n, const double* g) { return shade_body(A, P, p, n, g); });
+  // Garment atlas: skirt chart in the upper part, ponytail chart in the lower part.
+  paint_garment_texture(s.garment_texture, opt.texture_size, [&](double u, double v) {
+    if (v > 0.5 * (kSkirtV1 + kPonytailV0)) {
+      const double t = clamp((v - kSkirtV0) / (kSkirtV1 - kSkirtV0), 0.0, 1.0);
+      return shade_skirt(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length);
+    }
+    const double sp = clamp((v - kPonytailV0) / (kPonytailV1 - kPonytailV0), 0.0, 1.0);
+    return shade_ponytail(P, sp, 2 * kPi * u);
   });
   return s;
 }

@@ -22,6 +22,17 @@
 //    and box-filtered, black background, soft coverage masks), never from an avatar.
 //  - a static OpenCV camera ~2.8 m in front of the subject (body Y up -> camera y down),
 //    focal chosen so every frame's clothed subject fits with a margin.
+// Subject 2 (`--subject 2`, synth_subject_coat.cpp), the harder benchmark subject: another
+// body shape (betas: taller, heavier, wider hips and shoulders), its own palette, long
+// loose hair (a sheet from above the ears falling down the back past the shoulder blades,
+// clear of head, body and coat, skinned head -> neck -> spine3 -> spine2 so it shears when
+// the head turns) over a hair shell, and a loose coat: a jacket shell over the torso and
+// the upper arms standing 3 to 5.5 cm off the body (sleeves flaring toward the cuff), plus
+// long tails from the waist to below the knees (a flared skirt with soft folds).
+//
+// View-dependent shading (SynthRenderer::set_view_shading, `--view-shading S`): a rim sheen
+// and a specular highlight of a fixed world light on meshes with gloss > 0 (hair 0.7, cloth
+// 1); a diffuse texture cannot hold it. Off (0) by default for subject 1, 0.5 for subject 2.
 // Everything is deterministic for a seed.
 #pragma once
 
@@ -45,7 +56,9 @@ namespace haha {
 
 // A mesh that is not the body, skinned with the body's joint transforms.
 struct SynthMesh {
-  std::string name;             // "hair", "ponytail", "skirt"
+  std::string name;             // "hair", "ponytail", "skirt", "long_hair", "coat", "coat_tails"
+  unsigned part = 0;            // its SynthPart bit (the renderer's selection)
+  float gloss = 0;              // response to view-dependent shading (0: none)
   std::vector<float> rest;      // (V, 3) rest-pose positions (on the shaped rest body)
   std::vector<int32_t> faces;   // (F, 3)
   std::vector<float> vt;        // (T, 2) UVs, v up (body convention)
@@ -61,20 +74,24 @@ struct SynthMesh {
 struct SynthSubjectOptions {
   uint64_t seed = 0;       // colours and pattern details
   int texture_size = 512;  // body atlas side; the garment atlas is texture_size x texture_size/2
-  bool hair = true, ponytail = true, skirt = true;
+  int subject = 1;         // 1: skirt and ponytail; 2: long hair and coat (see above)
+  bool hair = true, ponytail = true, skirt = true;  // subject 1's pieces
 };
 
 struct SynthSubject {
   std::vector<float> betas;          // the subject's shape (zeros: the model's template)
   std::vector<float> rest_verts;     // (V, 3) shaped rest body
   std::vector<float> rest_joints;    // (55, 3)
-  std::vector<SynthMesh> meshes;     // hair, ponytail, skirt (those enabled)
+  std::vector<SynthMesh> meshes;     // subject 1: hair, ponytail, skirt (those enabled);
+                                     // subject 2: hair, coat, coat_tails, long_hair
   Image body_texture;                // (S, S, 3) on the body's UV atlas
-  Image garment_texture;             // (S/2, S, 3): skirt (upper part), ponytail (lower part)
+  Image garment_texture;             // (S/2, S, 3): skirt or coat tails (upper part),
+                                     // ponytail or long hair (lower part)
 };
 
 // Builds the subject on `body` (which needs vt/ft). Throws haha::Error naming the model's
-// source if it has no UV map or the texture size is outside [16, 8192].
+// source if it has no UV map, the texture size is outside [16, 8192] or the subject is
+// not 1 or 2.
 SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions& opt = {});
 
 // ---------------------------------------------------------------------------------------
@@ -113,7 +130,9 @@ enum SynthPart : unsigned {
   kSynthHair = 2u,
   kSynthPonytail = 4u,
   kSynthSkirt = 8u,
-  kSynthAll = 15u,
+  kSynthLongHair = 16u,
+  kSynthCoat = 32u,  // coat and coat_tails
+  kSynthAll = 63u,
 };
 
 // Renders the subject; holds the LBS and scratch buffers (not thread-safe: one per thread;
@@ -131,6 +150,11 @@ class SynthRenderer {
   // box-filtered. rgb (H, W, 3) on black; mask (H, W, 1) = covered fraction of subsamples.
   void render(const Camera& cam, const SmplxParams& p, int supersample, unsigned parts, Image& rgb, Image& mask);
 
+  // Strength of the view-dependent shading (synth_internal.h view_shade) on meshes with
+  // gloss > 0; 0 (the default) renders the textures alone. Throws for a value outside [0, 2].
+  void set_view_shading(double strength);
+  double view_shading() const { return view_shading_; }
+
  private:
   const BodyModel& body_;
   const SynthSubject& subject_;
@@ -139,8 +163,11 @@ class SynthRenderer {
   std::vector<float> verts_;
   std::vector<int32_t> faces_;
   unsigned faces_parts_ = 0;
+  double view_shading_ = 0;
+  std::vector<float> normals_;
   struct Range {
     int first_face, num_faces, texture;
+    float gloss;
     const float* vt;
     const int32_t* ft;
   };
@@ -168,9 +195,15 @@ struct SynthOptions {
   int texture_size = 0;     // 0: automatic (512 up to 256 px, 1024 up to 512 px, else 2048)
   double camera_distance = 2.8;
   int sheet_train = 40, sheet_test = 10;  // frames shown on the contact sheet (evenly spaced)
+  int subject = 1;            // SynthSubjectOptions::subject
+  double view_shading = -1;   // strength; < 0: the subject's default (0 for 1, 0.5 for 2)
 };
 
-// Throws haha::Error "--size: ...", "--frames: ...", ... for out-of-range options.
+// The view-shading strength a subject gets when none is given.
+double default_view_shading(int subject);
+
+// Throws haha::Error "--size: ...", "--frames: ...", "--subject: ...", ... for out-of-range
+// options.
 void validate_synth_options(const SynthOptions& opt);
 
 // The body `haha synth` uses: `path` loaded when given, else the procedural body.

@@ -45,6 +45,23 @@ void expect_consistent(const Dataset& ds) {
   }
 }
 
+TEST(SynthSlow, SubjectTwoOnTheFullBody) {
+  const fs::path out = temp("subject2");
+  SynthOptions o;
+  o.subject = 2;
+  o.train_frames = 12;
+  o.test_frames = 6;
+  const SynthSummary s = write_synth_dataset(out.string(), full_body(), o, false);
+  EXPECT_GE(s.min_pose_gap, kSynthMinPoseGap);
+  const Dataset ds = read_dataset(out.string());
+  EXPECT_EQ(ds.frames.size(), 18u);
+  expect_consistent(ds);  // masks agree with the images, the whole person in frame
+  EXPECT_NE(ds.source.find("subject 2"), std::string::npos) << ds.source;
+  ASSERT_EQ(ds.params_true.size(), 18u);
+  EXPECT_GT(ds.params_true[0].betas[0], 1.0f);  // the taller shape travels with the fits
+  fs::remove_all(out);
+}
+
 TEST(SynthSlow, DefaultRunOnTheFullBody) {
   const fs::path out = temp("default");
   const SynthSummary s = write_synth_dataset(out.string(), full_body(), SynthOptions{}, true);

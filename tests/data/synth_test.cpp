@@ -291,6 +291,41 @@ TEST(SynthSubject, HairAndSkirtLieOutsideTheBodyAndLeaveItsSurface) {
   EXPECT_LT(skirt_gap, 0.4);
 }
 
+// Subject 1 (the default sample) must not change when other subjects are added: hashes
+// of 8-bit quantised renders, textures and a whole small dataset, measured on the code
+// before subject 2 existed (commit f0cffd6). Quantising to 8 bits keeps the check about
+// the pictures rather than the last bit of a float.
+uint64_t fnv1a(uint64_t h, const void* data, size_t n) {
+  const auto* b = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 0x100000001B3ull;
+  return h;
+}
+uint64_t hash_image(uint64_t h, const Image& img) {
+  std::vector<unsigned char> q(img.data.size());
+  for (size_t i = 0; i < q.size(); ++i) q[i] = (unsigned char)std::lround(std::clamp(img.data[i], 0.0f, 1.0f) * 255.0f);
+  return fnv1a(h, q.data(), q.size());
+}
+
+TEST(SynthSubject, SubjectOneRendersExactlyAsBefore) {
+  const SynthSubject& s = low_subject();
+  uint64_t h = 0xCBF29CE484222325ull;
+  h = hash_image(h, s.body_texture);
+  h = hash_image(h, s.garment_texture);
+  const SynthMotion motion = make_synth_motion(low_body(), s, 8, 4, 0);
+  SynthRenderer r(low_body(), s);
+  std::vector<const SmplxParams*> all;
+  for (const auto& p : motion.train) all.push_back(&p);
+  for (const auto& p : motion.test) all.push_back(&p);
+  const Camera cam = synth_camera(r, all, 64);
+  Image rgb, mask;
+  for (const SmplxParams* p : {&motion.train[0], &motion.train[3], &motion.test[1]}) {
+    r.render(cam, *p, 3, kSynthAll, rgb, mask);
+    h = hash_image(h, rgb);
+    h = hash_image(h, mask);
+  }
+  EXPECT_EQ(h, 8023900718762434255ull);
+}
+
 TEST(SynthSubject, NeedsAUvMapAndASaneTextureSize) {
   BodyModel b = low_body();
   b.vt.clear();
@@ -609,6 +644,30 @@ TEST_F(SynthDataset, DeterministicForASeed) {
   EXPECT_EQ(files, 9 * 2 + 2 + 1 + 2);  // frames, masks, npz x2, dataset.json, sheet, texture
   EXPECT_FALSE(fs::exists(dir_ / "a" / "body_model.npz"));
   EXPECT_NE(slurp(dir_ / "a/images/000001.png"), slurp(dir_ / "c/images/000001.png"));
+}
+
+// The whole subject-1 pipeline (motion, fit noise, camera, files): bytes of dataset.json,
+// the PNGs and the npz arrays, hashed on the code before subject 2 existed.
+TEST_F(SynthDataset, SubjectOneDatasetIsExactlyAsBefore) {
+  SynthOptions o = small_options();
+  o.fit_noise = {0.05, 0.02};
+  write_synth_dataset(path("ds"), low_body(), o, false);
+  std::vector<fs::path> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir_ / "ds"))
+    if (e.is_regular_file()) files.push_back(fs::relative(e.path(), dir_ / "ds"));
+  std::sort(files.begin(), files.end());
+  uint64_t h = 0xCBF29CE484222325ull;
+  for (const fs::path& rel : files) {
+    h = fnv1a(h, rel.string().data(), rel.string().size());
+    if (rel.extension() == ".npz") {
+      const Npz x = Npz::read((dir_ / "ds" / rel).string());
+      for (const std::string& k : x.keys()) h = fnv1a(h, x.get(k).bytes.data(), x.get(k).bytes.size());
+    } else {
+      const std::string b = slurp(dir_ / "ds" / rel);
+      h = fnv1a(h, b.data(), b.size());
+    }
+  }
+  EXPECT_EQ(h, 5644435470981913490ull);
 }
 
 TEST_F(SynthDataset, ReplacesADatasetButNothingElse) {
