@@ -92,9 +92,12 @@ TrainCheckpoint Trainer::save() const {
 }
 void Trainer::load(const TrainCheckpoint& ck, const std::string& where) {
   p_->load(ck, where);
-  if (p_->dev && p_->stage <= 3) {
-    p_->dev->begin_stage(p_->stage);
-    p_->host_stale = true;  // equal now; reading the state back from the device checks the round trip
+  if (p_->dev) {
+    p_->host_stale = false;  // the restored state is the truth, whatever the device held
+    if (p_->stage <= 3) {
+      p_->dev->begin_stage(p_->stage);
+      p_->host_stale = true;  // equal now; reading the state back from the device checks the round trip
+    }
   }
 }
 Avatar Trainer::avatar() const {

@@ -4,18 +4,20 @@
 // reason. Written and compiled without a GPU: the tolerances below are first values, to
 // be confirmed (or the code fixed) by the first run on one.
 //
-// One step from the same state (a stage's start: Adam's first step of every group):
+// One step from the same state (a CPU checkpoint loaded into both; steps chosen so that
+// the KNN sets are not rebuilt: found from centres that differ by rounding they change
+// in 0.5-0.8 % of their entries, measured on this scene with 2-10 ulp of noise):
 //   loss terms           relative 1e-4 (sums in double; the renders differ by nvcc's fused
 //                        multiply-adds and the order of atomic sums);
-//   gradients            Adam's first moment after a first step is exactly 0.1 x the
-//                        gradient: per element |gpu - cpu| / (|cpu| + 1e-3 max|cpu|) <= 1e-3
-//                        for all but kCutFrac of the elements (a pixel decision taken
-//                        differently within rounding moves whole contributions), and the
-//                        arrays' relative L2 difference <= 1e-3;
-//   updated values       a first Adam step moves each value by lr sign(g): the two moves
-//                        differ by at most 2 lr, by more than lr / 2 (a sign flip of a
-//                        near-zero gradient) in at most kCutFrac of the elements; values
-//                        the stage does not train stay bit for bit;
+//   gradients            from Adam's first moments, g = (m_after - 0.9 m_before) / 0.1, for
+//                        every group (Gaussians, pose, betas, texture): per element
+//                        |gpu - cpu| / (|cpu| + 1e-3 max|cpu|) <= 1e-3 for all but kCutFrac
+//                        of the elements (a pixel decision taken differently within
+//                        rounding moves whole contributions), relative L2 difference <= 1e-3;
+//   updated values       the two Adam moves differ by at most 2 x the CPU's largest move,
+//                        by more than half of it (a sign flip of a near-zero gradient) in
+//                        at most kCutFrac of the elements; values the stage does not train
+//                        stay bit for bit;
 //   densify / prune      the same decisions up to statistics within rounding of the
 //                        threshold: counts within max(2, 0.5 %), faces 99 % the same;
 //   300 steps            PSNR of the trained avatar within 0.3 dB (issue 12).
@@ -157,16 +159,7 @@ void expect_step_close(const StepResult& cpu, const StepResult& gpu) {
   EXPECT_EQ(cpu.report.skipped, gpu.report.skipped);
   for (const auto& [key, c] : cpu.after.i32) {
     const std::vector<int32_t>& g = gpu.after.i32.at(key);
-    if (key != "knn.sets") {
-      EXPECT_EQ(c, g) << key;  // faces, step counters
-      continue;
-    }
-    // Neighbour sets are found on the host from the GPU's posed centres: near-ties in
-    // distance may resolve differently.
-    ASSERT_EQ(c.size(), g.size()) << key;
-    int64_t differ = 0;
-    for (size_t i = 0; i < c.size(); ++i) differ += c[i] != g[i];
-    EXPECT_LE(differ, int64_t(kCutFrac * double(c.size()))) << key;
+    EXPECT_EQ(c, g) << key;  // faces, step counters, KNN sets (not rebuilt in these steps)
   }
   for (const auto& [key, c] : cpu.after.f32) {
     auto it = gpu.after.f32.find(key);
@@ -174,12 +167,17 @@ void expect_step_close(const StepResult& cpu, const StepResult& gpu) {
     const std::vector<float>& g = it->second;
     const bool adam = key.rfind("adam.", 0) == 0;
     if (adam && key.size() > 2 && key.compare(key.size() - 2, 2, ".m") == 0) {
-      expect_gradient_close(key + " (0.1 x gradient)", c, g);
+      auto b = cpu.before.f32.find(key);
+      ASSERT_NE(b, cpu.before.f32.end()) << key;
+      ASSERT_EQ(b->second.size(), c.size()) << key;
+      std::vector<float> gc(c.size()), gg(g.size());
+      for (size_t i = 0; i < c.size(); ++i) {  // m = 0.9 m + 0.1 g (train/adam.h)
+        gc[i] = float((double(c[i]) - 0.9 * double(b->second[i])) / 0.1);
+        gg[i] = float((double(g[i]) - 0.9 * double(b->second[i])) / 0.1);
+      }
+      expect_gradient_close(key + " (the gradient)", gc, gg);
     } else if (adam && key.compare(key.size() - 2, 2, ".v") == 0) {
-      // 0.001 g^2: the squared gradient, compared through its root
-      std::vector<float> rc(c.size()), rg(g.size());
-      for (size_t i = 0; i < c.size(); ++i) rc[i] = std::sqrt(c[i]), rg[i] = std::sqrt(g[i]);
-      expect_gradient_close(key + " (root)", rc, rg);
+      continue;  // 0.999 v + 0.001 g^2: the gradient again, through cancellation
     } else if (adam) {
       EXPECT_EQ(c, g) << key;  // step counts, strides
     } else if (key == "densify.grad_accum") {
@@ -229,7 +227,7 @@ TEST(CudaTrainer, NoGpuIsOneLineError) {
 TEST(CudaTrainer, Stage1StepMatchesCpu) {
   REQUIRE_CUDA();
   const TrainConfig c = step_config();
-  const TrainCheckpoint start = cpu_checkpoint(c, 64, 1, 0);
+  const TrainCheckpoint start = cpu_checkpoint(c, 64, 1, 1);  // KNN sets from step 0, next rebuild at 3
   const StepResult cpu = one_step(c, 64, start, TrainDevice::cpu);
   const StepResult gpu = one_step(c, 64, start, TrainDevice::cuda);
   EXPECT_GT(cpu.report.loss.knn, 0.0);
@@ -250,7 +248,7 @@ TEST(CudaTrainer, Stage2StepMatchesCpu) {
 TEST(CudaTrainer, Stage3StepMatchesCpu) {
   REQUIRE_CUDA();
   const TrainConfig c = step_config();
-  const TrainCheckpoint start = cpu_checkpoint(c, 64, 3, 0);
+  const TrainCheckpoint start = cpu_checkpoint(c, 64, 3, 1);  // KNN sets from step 0; no prune before 3
   const StepResult cpu = one_step(c, 64, start, TrainDevice::cpu);
   const StepResult gpu = one_step(c, 64, start, TrainDevice::cuda);
   EXPECT_EQ(cpu.report.stage, 3);
