@@ -18,11 +18,14 @@ std::string gpu_description() { return ""; }
 
 Device parse_device(const std::string& s, const std::string& where) {
   if (s == "cpu") return Device::cpu;
-  if (s != "cuda") fail(where, "unknown device '" + s + "' (expected cpu or cuda)");
+  if (s != "cuda" && s != "auto") fail(where, "unknown device '" + s + "' (expected cpu, cuda or auto)");
 #if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
-  if (!cuda::cuda_available()) fail(where, "no CUDA device found (" + cuda::device_description() + ")");
+  const bool usable = cuda::cuda_available();
+  if (s == "auto") return usable ? Device::cuda : Device::cpu;
+  if (!usable) fail("cuda", "no usable GPU: " + cuda::device_description());
   return Device::cuda;
 #else
+  if (s == "auto") return Device::cpu;
   fail(where, "cuda requested but this build has no CUDA backend (configure with nvcc on PATH and HAHA_WITH_CUDA=ON)");
 #endif
 }

@@ -14,9 +14,10 @@ inline const char* device_name(Device d) { return d == Device::cuda ? "cuda" : "
 // True when this build has the CUDA backend.
 bool cuda_backend_built();
 
-// "cpu" or "cuda" (case-sensitive). `where` names the option in the error ("--device").
-// Throws haha::Error for an unknown name, for "cuda" without a CUDA backend in this build,
-// and for "cuda" on a machine where no CUDA device can be used (no driver, no GPU).
+// "cpu", "cuda" or "auto" (cuda where a backend is built and a GPU answers, else cpu;
+// case-sensitive). `where` names the option in the error ("--device"). Throws haha::Error
+// for an unknown name, for "cuda" without a CUDA backend in this build, and for "cuda" on
+// a machine where no CUDA device can be used ("cuda: no usable GPU: <why>").
 Device parse_device(const std::string& s, const std::string& where = "--device");
 
 // The GPU in use ("NVIDIA H100 ... (sm_90, ...)"), or why none can be used; empty

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "app/device.h"
 #include "app/lpips_weights.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
@@ -81,6 +82,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
     }
   };
   if (opt.run_dir.empty()) fail("--out", "no run directory given");
+  const Device device = parse_device(opt.device);  // before any reading: a missing GPU fails at once
   const RunDir run(opt.run_dir);
   const std::string config_path = run.config();
   const std::string ck_path = run.checkpoint();
@@ -135,7 +137,8 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     log(line);
   }
-  Trainer trainer(cfg, std::move(input));
+  Trainer trainer(cfg, std::move(input), device == Device::cuda ? TrainDevice::cuda : TrainDevice::cpu);
+  if (device == Device::cuda) log("device: cuda, " + gpu_description());
 
   if (opt.resume) {
     if (!fs::exists(ck_path)) fail(ck_path, "--resume: no checkpoint to resume from");
@@ -214,6 +217,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   s["resolution"] = {W, H};
   s["lpips"] = trainer.lpips_active();
   s["threads"] = num_threads();
+  s["device"] = device_name(device);
   write_text_file(run.train_summary(), s.dump(2) + "\n");
   char buf[256];
   std::snprintf(buf, sizeof buf, "done: %d Gaussians after stage 1, %d after filtering; stages %.1f s / %.1f s / %.1f s",

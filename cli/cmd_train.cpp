@@ -21,6 +21,10 @@ HAHA_COMMAND(train) {
   sub->add_option("--preset", a->run.preset, "tiny (CPU demo) or paper (the published schedule)")
       ->capture_default_str();
   sub->add_flag("--resume", a->run.resume, "continue the run in --out from its last checkpoint");
+  sub->add_option("--device", a->run.device,
+                  "cpu, cuda (every stage on the GPU) or auto (cuda where a GPU answers); a run may resume on "
+                  "another device")
+      ->capture_default_str();
   sub->add_option("--lpips-weights", a->run.lpips_weights,
                   "LPIPS weight file (.npz, layout in train/lpips.h); without it LPIPS is off");
   sub->add_flag("--no-sobel", a->no_sobel, "ablation: no edge loss");

@@ -246,6 +246,17 @@ __global__ void background_color_grad_kernel(int64_t P, const float* d_comp, con
   for (int c = 0; c < 3; ++c) detail::block_sum_atomic(s[c], d_bg3 + c);
 }
 
+__global__ void pixel_alpha_kernel(const Proj* g, const float* px, const float* py, int n, float* alpha, float* power,
+                                   uint8_t* clamped) {
+  const int64_t i = detail::global_index();
+  if (i >= n) return;
+  float dx, dy, gauss = 0.0f;
+  bool cl = false;
+  alpha[i] = gs::pixel_alpha(g[i], px[i], py[i], dx, dy, gauss, cl);
+  power[i] = gs::pixel_power(g[i], dx, dy);
+  clamped[i] = cl ? 1 : 0;
+}
+
 int bits_for(uint32_t n) {  // smallest b with 2^b >= n
   int b = 0;
   while (b < 32 && (uint64_t(1) << b) < n) ++b;
@@ -404,6 +415,11 @@ std::vector<float> render_gaussians_image_cuda(const GaussianInputs<float>& h, c
   GaussianRasterCudaState state;
   rasterize_gaussians_cuda(d, cam, s, state, out);
   return image.to_host();
+}
+
+void pixel_alpha_cuda(const gs::ProjectedGaussian<float>* g, const float* px, const float* py, int n, float* alpha,
+                      float* power, uint8_t* clamped) {
+  HAHA_LAUNCH(pixel_alpha_kernel, n, detail::kThreads, 0, g, px, py, n, alpha, power, clamped);
 }
 
 }  // namespace haha::cuda

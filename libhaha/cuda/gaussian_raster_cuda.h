@@ -63,4 +63,11 @@ void rasterize_gaussians_backward_cuda(const GaussianInputs<float>& in, const Ca
 std::vector<float> render_gaussians_image_cuda(const GaussianInputs<float>& host_inputs, const Camera& cam,
                                                Vec3f background, bool antialiased);
 
+// gs::pixel_alpha (and its exponent gs::pixel_power) of n (Gaussian, pixel centre) pairs,
+// for the parity test of the per-pixel cut decisions (tests/cuda/trainer_test.cpp): the
+// forward and backward kernels evaluate exactly this. All pointers device (n each);
+// clamped[i] = alpha hit kAlphaMax.
+void pixel_alpha_cuda(const gs::ProjectedGaussian<float>* g, const float* px, const float* py, int n, float* alpha,
+                      float* power, uint8_t* clamped);
+
 }  // namespace haha::cuda

@@ -235,13 +235,56 @@ HAHA_HD void project_gaussian_backward(const CameraT<T>& cam, const T* scale, T 
   d_quat[3] = (gz - qz * proj) / c.qnorm;
 }
 
+// Rounded multiply / add / subtract that no compiler may fuse: nvcc contracts a * b + c
+// into one fma by default, and would be free to do so differently in the forward and the
+// backward kernel. The host compiler does not contract (x86-64 without -mfma, ISO mode),
+// so host and device compute these bit for bit alike.
+HAHA_HD float mul_rn(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return __fmul_rn(a, b);
+#else
+  return a * b;
+#endif
+}
+HAHA_HD double mul_rn(double a, double b) {
+#if defined(__CUDA_ARCH__)
+  return __dmul_rn(a, b);
+#else
+  return a * b;
+#endif
+}
+HAHA_HD float add_rn(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return __fadd_rn(a, b);
+#else
+  return a + b;
+#endif
+}
+HAHA_HD double add_rn(double a, double b) {
+#if defined(__CUDA_ARCH__)
+  return __dadd_rn(a, b);
+#else
+  return a + b;
+#endif
+}
+
+// The exponent of pixel_alpha, -0.5 (ca dx^2 + cc dy^2) - cb dx dy, with every rounding
+// explicit (in the order the host evaluates the plain expression): the alpha cut and the
+// clamp recomputed by the backward kernel then take exactly the forward kernel's
+// decisions (the depth test and the transmittance stop are stored by the forward: `last`).
+template <class T>
+HAHA_HD T pixel_power(const ProjectedGaussian<T>& g, T dx, T dy) {
+  const T quad = add_rn(mul_rn(mul_rn(g.ca, dx), dx), mul_rn(mul_rn(g.cc, dy), dy));
+  return add_rn(mul_rn(T(-0.5), quad), -mul_rn(mul_rn(g.cb, dx), dy));
+}
+
 // Per-pixel evaluation. Returns the composited alpha, or 0 when the pixel skips the
 // Gaussian (alpha < kAlphaMin). `gauss` = exp(power), `clamped` = alpha hit kAlphaMax.
 template <class T>
 HAHA_HD T pixel_alpha(const ProjectedGaussian<T>& g, T px, T py, T& dx, T& dy, T& gauss, bool& clamped) {
   dx = px - g.mx;
   dy = py - g.my;
-  const T power = T(-0.5) * (g.ca * dx * dx + g.cc * dy * dy) - g.cb * dx * dy;
+  const T power = pixel_power(g, dx, dy);
   if (power < g.power_min) return T(0);
   gauss = std::exp(power);
   const T a = g.opacity * gauss;

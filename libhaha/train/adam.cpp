@@ -77,6 +77,16 @@ void Adam::reset_moments(int gi) {
   std::fill(g.v.begin(), g.v.end(), 0.0f);
 }
 
+void Adam::set_state(int gi, std::vector<float> m, std::vector<float> v, int64_t t) {
+  Group& g = groups_.at(size_t(gi));
+  if (m.size() != v.size() || m.size() % size_t(g.stride) != 0 || t < 0)
+    fail("adam", "group '" + g.name + "': state of " + std::to_string(m.size()) + " / " + std::to_string(v.size()) +
+                     " values does not fit stride " + std::to_string(g.stride));
+  g.m = std::move(m);
+  g.v = std::move(v);
+  g.t = t;
+}
+
 std::map<std::string, std::vector<float>> Adam::state() const {
   std::map<std::string, std::vector<float>> s;
   for (const Group& g : groups_) {

@@ -94,6 +94,9 @@ class Adam {
   // haha::Error naming the group for an index >= the old element count.
   void reindex(int g, const std::vector<int64_t>& source);
   void reset_moments(int g);  // zero m and v, keep the size and step count
+  // Replaces group g's moments (equal sizes, a multiple of its stride) and step count: a
+  // device optimiser hands its state back this way (train/trainer_cuda.cpp).
+  void set_state(int g, std::vector<float> m, std::vector<float> v, int64_t t);
 
   // Checkpoint state: for every group "adam.<name>.m", "adam.<name>.v" (size values),
   // "adam.<name>.step" ({t}, exact up to 2^24 steps) and "adam.<name>.stride" ({stride}).

@@ -65,6 +65,15 @@ void activation_backward(const ActivatedGaussians& act, float scale_max, int n, 
                          const float* d_color, const float* d_opacity, float* d_scale_logit, float* d_color_logit,
                          float* d_opacity_logit);
 
+// r / |r| with |r|^2 floored at 1e-30 (the KNN regulariser's unit rotation; its gradient
+// is normalize_quat_backward below).
+template <class T>
+HAHA_HD void normalize_quat(const T* r, T* out) {
+  const T n2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3];
+  const T len = std::sqrt(n2 < T(1e-30) ? T(1e-30) : n2);  // std::max(n2, 1e-30) with NaN kept
+  for (int c = 0; c < 4; ++c) out[c] = r[c] / len;
+}
+
 // d/dr of normalize(r) applied to d_n (gradient w.r.t. the unit quaternion): d_r (4).
 template <class T>
 HAHA_HD void normalize_quat_backward(const T* r, const T* d_n, T* d_r) {

@@ -88,13 +88,7 @@ PixelWindow person_crop(const float* mask, int H, int W, int side, double u, dou
 
 void composite_ground_truth(const float* rgb, const float* mask, int num_pixels, bool premultiplied,
                             const float bg[3], float* out) {
-  for (int p = 0; p < num_pixels; ++p) {
-    const float m = mask[p];
-    for (int c = 0; c < 3; ++c) {
-      const float v = rgb[3 * p + c];
-      out[3 * p + c] = (premultiplied ? v : m * v) + (1.0f - m) * bg[c];
-    }
-  }
+  for (int p = 0; p < num_pixels; ++p) composite_ground_truth_pixel(rgb, mask, p, premultiplied, bg, out);
 }
 
 }  // namespace haha

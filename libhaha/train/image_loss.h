@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/hd.h"
 #include "train/config.h"
 #include "train/losses.h"
 #include "train/lpips.h"
@@ -47,22 +48,36 @@ double image_loss(const float* render, const float* gt, int H, int W, const floa
 // mask) give rgb + (1 - mask) bg; others mask * rgb + (1 - mask) bg. out (P, 3).
 void composite_ground_truth(const float* rgb, const float* mask, int num_pixels, bool premultiplied,
                             const float bg[3], float* out);
+// One pixel of it (the CUDA trainer's kernel runs the same).
+HAHA_HD void composite_ground_truth_pixel(const float* rgb, const float* mask, int64_t p, bool premultiplied,
+                                          const float* bg, float* out) {
+  const float m = mask[p];
+  for (int c = 0; c < 3; ++c) {
+    const float v = rgb[3 * p + c];
+    out[3 * p + c] = (premultiplied ? v : m * v) + (1.0f - m) * bg[c];
+  }
+}
 
 // Soft silhouette union of the mesh mask m and the Gaussian alpha A:
 // S = 1 - (1 - m)(1 - A) (so A receives gradient wherever the mesh does not cover).
 // Either input may be null (= 0). T = float or double.
 template <class T>
+HAHA_HD T silhouette_union_value(T m, T a) {
+  return T(1) - (T(1) - m) * (T(1) - a);
+}
+template <class T>
 void silhouette_union(const T* mesh_mask, const T* alpha, int num_pixels, T* out) {
-  for (int p = 0; p < num_pixels; ++p) {
-    const T m = mesh_mask ? mesh_mask[p] : T(0);
-    const T a = alpha ? alpha[p] : T(0);
-    out[p] = T(1) - (T(1) - m) * (T(1) - a);
-  }
+  for (int p = 0; p < num_pixels; ++p)
+    out[p] = silhouette_union_value(mesh_mask ? mesh_mask[p] : T(0), alpha ? alpha[p] : T(0));
 }
 // dL/dA from dL/dS: (1 - m) dL/dS. out is OVERWRITTEN.
 template <class T>
+HAHA_HD T silhouette_union_grad(T m, T d_union) {
+  return (T(1) - m) * d_union;
+}
+template <class T>
 void silhouette_union_backward(const T* mesh_mask, const T* d_union, int num_pixels, T* d_alpha) {
-  for (int p = 0; p < num_pixels; ++p) d_alpha[p] = (T(1) - (mesh_mask ? mesh_mask[p] : T(0))) * d_union[p];
+  for (int p = 0; p < num_pixels; ++p) d_alpha[p] = silhouette_union_grad(mesh_mask ? mesh_mask[p] : T(0), d_union[p]);
 }
 
 }  // namespace haha

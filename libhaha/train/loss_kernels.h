@@ -171,6 +171,46 @@ HAHA_HD void edge_grad_pixel(int64_t p, T dl, T* grad) {
   grad[3 * p + 2] += T(kEdgeLumB) * dl;
 }
 
+// ---- Dice, texture TV, opacity regulariser (per element) ----
+// Dice: grad[i] += a t[i] + b with a = -2 s / U, b = s (2 I + 1) / U^2 (losses.cpp).
+template <class T>
+HAHA_HD void dice_grad_item(const T* t, int64_t i, T a, T b, T* grad) {
+  grad[i] += a * t[i] + b;
+}
+
+// TV of element i of row r (row stride rs = W C): |right difference| + |down difference|,
+// each present when the neighbour exists (double).
+template <class T>
+HAHA_HD double tv_value_item(const T* tex, int H, int64_t rs, int C, int64_t r, int64_t i) {
+  const T* a = tex + r * rs;
+  double s = 0.0;
+  if (i >= C) s += std::abs(double(a[i]) - double(a[i - C]));
+  if (r + 1 < H) s += std::abs(double(a[i + rs]) - double(a[i]));
+  return s;
+}
+// Its gradient at element i of row r (every difference it takes part in), times k.
+template <class T>
+HAHA_HD void tv_grad_item(const T* tex, int H, int64_t rs, int C, int64_t r, int64_t i, T k, T* grad) {
+  const T* a = tex + r * rs;
+  T d = T(0);
+  if (i >= C) d += sign_of(a[i] - a[i - C]);
+  if (i + C < rs) d -= sign_of(a[i + C] - a[i]);
+  if (r > 0) d += sign_of(a[i] - a[i - rs]);
+  if (r + 1 < H) d -= sign_of(a[i + rs] - a[i]);
+  grad[r * rs + i] += k * d;
+}
+
+// Opacity regulariser: the value of element i (double) and its gradient.
+template <class T>
+HAHA_HD double opacity_reg_value_item(const T* o, int64_t i, OpacityRegMode mode) {
+  return mode == OpacityRegMode::SumSquares ? double(o[i]) * double(o[i]) : std::abs(double(o[i]));
+}
+// k = grad_scale (SumSquares) or grad_scale / n (MeanAbs).
+template <class T>
+HAHA_HD void opacity_reg_grad_item(const T* o, int64_t i, OpacityRegMode mode, T k, T* grad) {
+  grad[i] += mode == OpacityRegMode::SumSquares ? k * T(2) * o[i] : k * sign_of(o[i]);
+}
+
 // ---- KNN regulariser ----
 // Members of set i: the entries of row (K values) in [0, n), in row order.
 HAHA_HD bool knn_member(int32_t j, int64_t n) { return j >= 0 && j < n; }

@@ -42,7 +42,6 @@ double chunked_sum(int64_t n, F&& f) {
   return ordered_sum(chunks, kChunk, [&](int64_t c) { return f(c * kChunk, std::min(n, (c + 1) * kChunk)); });
 }
 
-using loss::sign_of;
 
 template <class T>
 double weight_sum(const T* weights, int H, int W) {
@@ -236,7 +235,7 @@ T dice_loss(const T* p, const T* t, int64_t n, T* grad, T grad_scale) {
                    });
   if (grad) {
     const T a = T(-2.0 / U) * grad_scale, b = T((2.0 * I + 1.0) / (U * U)) * grad_scale;
-    par_for(n, 2, [&](int64_t i) { grad[i] += a * t[i] + b; });
+    par_for(n, 2, [&](int64_t i) { loss::dice_grad_item(t, i, a, b, grad); });
   }
   return T(1.0 - (2.0 * I + 1.0) / U);
 }
@@ -259,16 +258,7 @@ T texture_tv_loss(const T* tex, int H, int W, int C, T* grad, T grad_scale) {
   if (grad) {
     const T k = T(1.0 / count) * grad_scale;
     par_for(H, 8 * rs, [&](int64_t r) {
-      const T* a = tex + r * rs;
-      T* g = grad + r * rs;
-      for (int64_t i = 0; i < rs; ++i) {
-        T d = T(0);
-        if (i >= C) d += sign_of(a[i] - a[i - C]);
-        if (i + C < rs) d -= sign_of(a[i + C] - a[i]);
-        if (r > 0) d += sign_of(a[i] - a[i - rs]);
-        if (r + 1 < H) d -= sign_of(a[i + rs] - a[i]);
-        g[i] += k * d;
-      }
+      for (int64_t i = 0; i < rs; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
     });
   }
   return T(sum / count);
@@ -285,7 +275,7 @@ T opacity_reg(const T* o, int64_t n, OpacityRegMode mode, T* grad, T grad_scale)
       for (int64_t i = b; i < e; ++i) v += double(o[i]) * double(o[i]);
       return v;
     });
-    if (grad) par_for(n, 2, [&](int64_t i) { grad[i] += grad_scale * T(2) * o[i]; });
+    if (grad) par_for(n, 2, [&](int64_t i) { loss::opacity_reg_grad_item(o, i, mode, grad_scale, grad); });
     return T(s);
   }
   const double s = chunked_sum(n, [&](int64_t b, int64_t e) {
@@ -295,7 +285,7 @@ T opacity_reg(const T* o, int64_t n, OpacityRegMode mode, T* grad, T grad_scale)
   });
   if (grad) {
     const T k = grad_scale / T(n);
-    par_for(n, 2, [&](int64_t i) { grad[i] += k * sign_of(o[i]); });
+    par_for(n, 2, [&](int64_t i) { loss::opacity_reg_grad_item(o, i, mode, k, grad); });
   }
   return T(s / double(n));
 }

@@ -130,7 +130,75 @@ double read_sum(LossCudaScratch& s) {
   return v;
 }
 
+__global__ void dice_sums_kernel(const float* p, const float* t, int64_t n, double* sums) {
+  const int64_t i = global_index();
+  const bool in = i < n;
+  block_sum_atomic(in ? double(p[i]) * double(t[i]) : 0.0, sums);
+  block_sum_atomic(in ? double(p[i]) + double(t[i]) : 0.0, sums + 1);
+}
+
+__global__ void dice_grad_kernel(const float* t, int64_t n, float a, float b, float* grad) {
+  const int64_t i = global_index();
+  if (i < n) loss::dice_grad_item(t, i, a, b, grad);
+}
+
+__global__ void tv_value_kernel(const float* tex, int H, int64_t rs, int C, double* sum) {
+  const int64_t e = global_index();
+  block_sum_atomic(e < int64_t(H) * rs ? loss::tv_value_item(tex, H, rs, C, e / rs, e % rs) : 0.0, sum);
+}
+
+__global__ void tv_grad_kernel(const float* tex, int H, int64_t rs, int C, float k, float* grad) {
+  const int64_t e = global_index();
+  if (e < int64_t(H) * rs) loss::tv_grad_item(tex, H, rs, C, e / rs, e % rs, k, grad);
+}
+
+__global__ void opacity_value_kernel(const float* o, int64_t n, OpacityRegMode mode, double* sum) {
+  const int64_t i = global_index();
+  block_sum_atomic(i < n ? loss::opacity_reg_value_item(o, i, mode) : 0.0, sum);
+}
+
+__global__ void opacity_grad_kernel(const float* o, int64_t n, OpacityRegMode mode, float k, float* grad) {
+  const int64_t i = global_index();
+  if (i < n) loss::opacity_reg_grad_item(o, i, mode, k, grad);
+}
+
 }  // namespace
+
+float dice_loss_cuda(const float* p, const float* t, int64_t n, LossCudaScratch& s, float* grad, float grad_scale) {
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(dice_sums_kernel, n, detail::kThreads, 0, p, t, n, s.sums.data());
+  double h[2] = {0.0, 0.0};
+  s.sums.download(h, 2);
+  const double I = h[0], U = 1.0 + h[1];
+  if (grad) {
+    const float a = float(-2.0 / U) * grad_scale, b = float((2.0 * I + 1.0) / (U * U)) * grad_scale;
+    HAHA_LAUNCH(dice_grad_kernel, n, detail::kThreads, 0, t, n, a, b, grad);
+  }
+  return float(1.0 - (2.0 * I + 1.0) / U);
+}
+
+float texture_tv_loss_cuda(const float* tex, int H, int W, int C, LossCudaScratch& s, float* grad, float grad_scale) {
+  const double count = double(H) * W * C;
+  if (!(count > 0.0)) return 0.0f;
+  const int64_t rs = int64_t(W) * C, total = int64_t(H) * rs;
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(tv_value_kernel, total, detail::kThreads, 0, tex, H, rs, C, s.sums.data());
+  if (grad) HAHA_LAUNCH(tv_grad_kernel, total, detail::kThreads, 0, tex, H, rs, C, float(1.0 / count) * grad_scale, grad);
+  return float(read_sum(s) / count);
+}
+
+float opacity_reg_cuda(const float* o, int64_t n, OpacityRegMode mode, LossCudaScratch& s, float* grad,
+                       float grad_scale) {
+  if (n <= 0) return 0.0f;
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(opacity_value_kernel, n, detail::kThreads, 0, o, n, mode, s.sums.data());
+  const bool sum_sq = mode == OpacityRegMode::SumSquares;
+  if (grad)
+    HAHA_LAUNCH(opacity_grad_kernel, n, detail::kThreads, 0, o, n, mode, sum_sq ? grad_scale : grad_scale / float(n),
+                grad);
+  const double v = read_sum(s);
+  return float(sum_sq ? v : v / double(n));
+}
 
 float l2_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScratch& s, const float* weights,
                    float* grad, float grad_scale) {

@@ -64,6 +64,16 @@ void AdamCuda::step(int gi, float* params, const float* grads) {
   adam_step_cuda(params, grads, g.m.data(), g.v.data(), int64_t(g.m.size()), adam_step_coeffs(config_, g.lr, g.t));
 }
 
+void AdamCuda::load(int gi, const std::vector<float>& m, const std::vector<float>& v, int64_t t) {
+  Group& g = groups_.at(size_t(gi));
+  if (m.size() != v.size() || m.size() % size_t(g.stride) != 0 || t < 0)
+    fail("adam", "group '" + g.name + "': state of " + std::to_string(m.size()) + " / " + std::to_string(v.size()) +
+                     " values does not fit stride " + std::to_string(g.stride));
+  g.m.upload(m);
+  g.v.upload(v);
+  g.t = t;
+}
+
 void AdamCuda::reindex(int gi, const std::vector<int64_t>& source) {
   Group& g = groups_.at(size_t(gi));
   const int64_t old_n = int64_t(g.m.size()) / g.stride;

@@ -33,6 +33,9 @@ class AdamCuda {
   void step(int g, float* params, const float* grads);
   // As Adam::reindex: source (host) = old element per new element, -1 = fresh moments.
   void reindex(int g, const std::vector<int64_t>& source);
+  // Replaces group g's moments (host values, equal sizes, a multiple of the stride) and
+  // step count: the state a host Adam hands over (train/trainer_cuda.cpp).
+  void load(int g, const std::vector<float>& m, const std::vector<float>& v, int64_t t);
   std::vector<float> first_moment(int g) const { return groups_.at(size_t(g)).m.to_host(); }
   std::vector<float> second_moment(int g) const { return groups_.at(size_t(g)).v.to_host(); }
 

@@ -58,8 +58,18 @@ void validate_train_input(const TrainInput& in) {
 }
 
 
-Trainer::Trainer(const TrainConfig& config, TrainInput input) : p_(std::make_unique<Impl>(config, std::move(input))) {
+Trainer::Trainer(const TrainConfig& config, TrainInput input, TrainDevice device)
+    : p_(std::make_unique<Impl>(config, std::move(input))) {
   p_->setup(true);
+  p_->device_kind = device;
+  if (device == TrainDevice::cuda) {
+#if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
+    p_->dev = Impl::make_cuda(*p_);
+    if (p_->stage <= 3) p_->dev->begin_stage(p_->stage);
+#else
+    fail("cuda", "this build has no CUDA backend (configure with nvcc on PATH and HAHA_WITH_CUDA=ON)");
+#endif
+  }
 }
 Trainer::~Trainer() = default;
 
@@ -75,12 +85,29 @@ bool Trainer::done() const { return p_->stage > 3; }
 StepReport Trainer::step() { return p_->run_step(); }
 int Trainer::num_gaussians() const { return p_->g.size(); }
 const TrainConfig& Trainer::config() const { return p_->cfg; }
-TrainCheckpoint Trainer::save() const { return p_->save(); }
-void Trainer::load(const TrainCheckpoint& ck, const std::string& where) { p_->load(ck, where); }
-Avatar Trainer::avatar() const { return p_->make_avatar(p_->g); }
+TrainDevice Trainer::device() const { return p_->device_kind; }
+TrainCheckpoint Trainer::save() const {
+  p_->sync_host();  // the checkpoint format is the host's on every device
+  return p_->save();
+}
+void Trainer::load(const TrainCheckpoint& ck, const std::string& where) {
+  p_->load(ck, where);
+  if (p_->dev) {
+    p_->host_stale = false;  // the restored state is the truth, whatever the device held
+    if (p_->stage <= 3) {
+      p_->dev->begin_stage(p_->stage);
+      p_->host_stale = true;  // equal now; reading the state back from the device checks the round trip
+    }
+  }
+}
+Avatar Trainer::avatar() const {
+  p_->sync_host();
+  return p_->make_avatar(p_->g);
+}
 bool Trainer::has_stage1() const { return p_->have_s1; }
 Avatar Trainer::stage1_avatar() const {
   if (!p_->have_s1) fail("trainer", "stage 1 has not finished");
+  p_->sync_host();
   return p_->make_avatar(p_->g_s1);
 }
 std::vector<SmplxParams> Trainer::refined_params() const {
@@ -89,6 +116,7 @@ std::vector<SmplxParams> Trainer::refined_params() const {
   return out;
 }
 std::vector<float> Trainer::densify_statistic() const {
+  p_->sync_host();
   std::vector<float> s(p_->grad_accum.size(), 0.0f);
   for (size_t i = 0; i < s.size(); ++i)
     if (p_->grad_count[i] > 0) s[i] = p_->grad_accum[i] / p_->grad_count[i];

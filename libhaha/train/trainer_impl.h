@@ -2,7 +2,8 @@
 // One file per part: trainer.cpp (set-up, the step loop, the public API),
 // trainer_stage1.cpp (Gaussians, pose refinement, densification), trainer_stage2.cpp
 // (texture), trainer_stage3.cpp (filtering, pruning), trainer_checkpoint.cpp (state in
-// and out). Included by those files only.
+// and out), trainer_cuda.cpp (the same steps on the GPU: train/trainer_device.h).
+// Included by those files only.
 #pragma once
 
 #include <algorithm>
@@ -29,6 +30,7 @@
 #include "train/losses.h"
 #include "train/pose_groups.h"
 #include "train/trainer.h"
+#include "train/trainer_device.h"
 
 namespace haha {
 
@@ -97,6 +99,20 @@ struct Trainer::Impl {
   std::vector<uint8_t> frame_touched;
   std::function<void(int, std::vector<float>&)> hook;
   std::function<void(const std::string&, const std::vector<float>&)> pose_hook;
+
+  // ---- device ----
+  TrainDevice device_kind = TrainDevice::cpu;
+  std::unique_ptr<TrainerDevice> dev;  // null: the steps run here (CPU)
+  bool host_stale = false;             // the device holds newer state than the host
+  struct Cuda;  // train/trainer_cuda.cpp (built with the CUDA backend only)
+  static std::unique_ptr<TrainerDevice> make_cuda(Impl& t);
+  // Makes the host state current (a no-op on the CPU).
+  void sync_host() {
+    if (dev && host_stale) {
+      dev->download();
+      host_stale = false;
+    }
+  }
 
   Impl(const TrainConfig& c, TrainInput input)
       : cfg(c), in(std::move(input)), body(*in.body), lbs(*in.body) {}
@@ -293,7 +309,13 @@ struct Trainer::Impl {
   bool step1(LossTerms& terms, std::string& event);
   const float* knn_term(const LossWeights& w, bool need_knn, LossTerms& terms);
   void accumulate_pose_grad(int fi);
+  void add_pose_grad(int fi, const SmplxGrad<float>& sg);
+  bool pose_grads_finite() const;
   void update_stage1();
+  void update_pose();
+  // After a step's update: densification (stage 1) and pruning (stage 3) when the
+  // schedule says so, on the host state (a device backend hands it over and back).
+  void after_update(int s, std::string& event);
 
   void densify(std::string& event);
 
@@ -315,7 +337,10 @@ struct Trainer::Impl {
     r.steps = stage_steps(stage);
     bool ok = true;
     if (r.steps > 0) {
-      ok = stage == 1 ? step1(r.loss, r.event) : stage == 2 ? step2(r.loss, r.event) : step3(r.loss, r.event);
+      if (dev)
+        ok = dev->step(r.loss, r.event);
+      else
+        ok = stage == 1 ? step1(r.loss, r.event) : stage == 2 ? step2(r.loss, r.event) : step3(r.loss, r.event);
       if (ok) {
         nan_streak = 0;
       } else {
@@ -335,10 +360,12 @@ struct Trainer::Impl {
     // Advance through finished (or empty) stages.
     while (stage <= 3 && step >= stage_steps(stage)) {
       const auto t1 = std::chrono::steady_clock::now();
+      sync_host();
       ++stage;
       step = 0;
       if (stage <= 3) {
         begin_stage(stage);
+        if (dev) dev->begin_stage(stage);
         r.event += (r.event.empty() ? "" : "; ") + std::string("begin stage ") + std::to_string(stage);
       }
       if (stage <= 3)

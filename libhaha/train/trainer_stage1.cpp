@@ -12,11 +12,7 @@ const float* Trainer::Impl::knn_term(const LossWeights& w, bool need_knn, LossTe
   d_means_extra.assign(3 * size_t(n), 0.0f);
   rot_unit.resize(4 * size_t(n));
   d_rot_unit.assign(4 * size_t(n), 0.0f);
-  for (int i = 0; i < n; ++i) {
-    const float* r = &g.rotation[4 * size_t(i)];
-    const float len = std::sqrt(std::max(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3], 1e-30f));
-    for (int c = 0; c < 4; ++c) rot_unit[4 * size_t(i) + c] = r[c] / len;
-  }
+  for (int i = 0; i < n; ++i) normalize_quat(&g.rotation[4 * size_t(i)], &rot_unit[4 * size_t(i)]);
   KnnRegInputs<float> ki;
   ki.n = n;
   ki.position = rbuf.means.data();
@@ -41,6 +37,11 @@ void Trainer::Impl::accumulate_pose_grad(int fi) {
   const SmplxParams fp = frame_params(fi);
   SmplxGrad<float> sg = lbs.make_grad(fp);
   lbs.backward(fp, lcache, d_verts.data(), nullptr, sg);
+  add_pose_grad(fi, sg);
+}
+
+// Adds one frame's SMPL-X gradient to its pose groups and the shared betas (both devices).
+void Trainer::Impl::add_pose_grad(int fi, const SmplxGrad<float>& sg) {
   std::vector<float>& db = d_frame_body[size_t(fi)];
   std::vector<float>& dfn = d_frame_fine[size_t(fi)];
   if (!frame_touched[size_t(fi)]) {
@@ -52,6 +53,14 @@ void Trainer::Impl::accumulate_pose_grad(int fi) {
   for (size_t q = 0; q < betas.size(); ++q) d_betas[q] += sg.betas[q];
 }
 
+bool Trainer::Impl::pose_grads_finite() const {
+  if (!finite_all(d_betas)) return false;
+  for (int i = 0; i < nf; ++i)
+    if (frame_touched[size_t(i)] && !(finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)])))
+      return false;
+  return true;
+}
+
 // Adam on the Gaussians, and on the refined poses and betas (gradients of the batch mean).
 void Trainer::Impl::update_stage1() {
   const LogLinearLr sched{cfg.s1.lr_offset_init, cfg.s1.lr_offset_final, cfg.s1.steps};
@@ -60,6 +69,12 @@ void Trainer::Impl::update_stage1() {
   adam.step(adam.group("rotation"), g.rotation.data(), d_rotation.data());
   adam.step(adam.group("scale"), g.scale_logit.data(), d_scale_logit.data());
   adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
+  update_pose();
+}
+
+// Adam on the refined poses and betas (host values on every device: LBS takes them from
+// the host).
+void Trainer::Impl::update_pose() {
   if (cfg.s1.refine_pose) {
     // Decayed pose rates (s1.lr.pose_final): the same factor for every pose group.
     double f = 1;
@@ -163,20 +178,28 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
   activation_backward(act, float(cfg.scale_max), n, d_scale.data(), d_color.data(), nullptr, d_scale_logit.data(),
                       d_color_logit.data(), nullptr);
   if (hook) hook(1, d_offset);
-  bool ok = std::isfinite(terms.total) && finite_all(d_offset) && finite_all(d_rotation) &&
-            finite_all(d_scale_logit) && finite_all(d_color_logit) && finite_all(d_betas);
-  for (int i = 0; i < nf && ok; ++i)
-    if (frame_touched[size_t(i)]) ok = finite_all(d_frame_body[size_t(i)]) && finite_all(d_frame_fine[size_t(i)]);
+  const bool ok = std::isfinite(terms.total) && finite_all(d_offset) && finite_all(d_rotation) &&
+                  finite_all(d_scale_logit) && finite_all(d_color_logit) && pose_grads_finite();
   if (!ok) return false;
 
   update_stage1();
-  // Densification, after the update (3DGS order), on the completed-step count.
-  const int done_steps = step + 1;
-  const Stage1Config& s1 = cfg.s1;
-  if (s1.densify_every > 0 && done_steps > s1.densify_from && done_steps < s1.densify_until &&
-      done_steps % s1.densify_every == 0)
-    densify(event);
+  after_update(1, event);
   return true;
+}
+
+void Trainer::Impl::after_update(int s, std::string& event) {
+  const int done_steps = step + 1;  // the completed-step count
+  const Stage1Config& s1 = cfg.s1;
+  // Densification after the update (3DGS order); pruning every prune_every steps and at the end.
+  const bool densify_now = s == 1 && s1.densify_every > 0 && done_steps > s1.densify_from &&
+                           done_steps < s1.densify_until && done_steps % s1.densify_every == 0;
+  const bool prune_now =
+      s == 3 && ((cfg.s3.prune_every > 0 && done_steps % cfg.s3.prune_every == 0) || done_steps == cfg.s3.steps);
+  if (!densify_now && !prune_now) return;
+  sync_host();
+  if (densify_now) densify(event);
+  if (prune_now) prune(event);
+  if (dev) dev->upload();
 }
 
 void Trainer::Impl::densify(std::string& event) {

@@ -76,8 +76,7 @@ bool Trainer::Impl::step3(LossTerms& terms, std::string& event) {
   if (!std::isfinite(terms.total) || !finite_all(d_opacity_logit) || !finite_all(d_color_logit)) return false;
   adam.step(adam.group("opacity"), g.opacity_logit.data(), d_opacity_logit.data());
   adam.step(adam.group("color"), g.color_logit.data(), d_color_logit.data());
-  const int done_steps = step + 1;
-  if ((cfg.s3.prune_every > 0 && done_steps % cfg.s3.prune_every == 0) || done_steps == cfg.s3.steps) prune(event);
+  after_update(3, event);
   return true;
 }
 

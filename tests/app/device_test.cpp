@@ -25,6 +25,7 @@ TEST(Device, NamesAndErrors) {
   const std::string unknown = error_of("gpu");
   EXPECT_NE(unknown.find("--device"), std::string::npos) << unknown;
   EXPECT_NE(unknown.find("unknown device 'gpu'"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("cpu, cuda or auto"), std::string::npos) << unknown;
   // cuda is accepted exactly where a backend is built and a device answers; elsewhere the
   // error says which of the two is missing.
   const std::string cuda = error_of("cuda");
@@ -32,11 +33,14 @@ TEST(Device, NamesAndErrors) {
     EXPECT_NE(cuda.find("no CUDA backend"), std::string::npos) << cuda;
     EXPECT_TRUE(gpu_description().empty());
   } else if (!cuda.empty()) {
-    EXPECT_NE(cuda.find("no CUDA device found"), std::string::npos) << cuda;
+    EXPECT_NE(cuda.find("cuda: no usable GPU: "), std::string::npos) << cuda;
+    EXPECT_EQ(parse_device("auto"), Device::cpu);
   } else {
     EXPECT_EQ(parse_device("cuda"), Device::cuda);
+    EXPECT_EQ(parse_device("auto"), Device::cuda);
     EXPECT_FALSE(gpu_description().empty());
   }
+  if (!cuda_backend_built()) EXPECT_EQ(parse_device("auto"), Device::cpu);
 }
 
 }  // namespace

@@ -32,11 +32,12 @@ TEST(GaussianParams, NormalizeQuatBackwardMatchesFiniteDifferences) {
     double r[4], g[4];
     const double scale = t < 10 ? 1.0 : 1e-3 * (t + 1);  // also short quaternions
     for (int i = 0; i < 4; ++i) r[i] = scale * n(rng), g[i] = n(rng);
-    // L = g . normalize(r)
+    // L = g . normalize_quat(r): the forward and its backward together
     auto L = [&](const double* q) {
-      const double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      double u[4];
+      normalize_quat(q, u);
       double s = 0;
-      for (int i = 0; i < 4; ++i) s += g[i] * q[i] / len;
+      for (int i = 0; i < 4; ++i) s += g[i] * u[i];
       return s;
     };
     double d[4];
@@ -56,6 +57,8 @@ TEST(GaussianParams, NormalizeQuatBackwardMatchesFiniteDifferences) {
   double d[4];
   normalize_quat_backward(z, g, d);
   for (double v : d) EXPECT_TRUE(std::isfinite(v));
+  normalize_quat(z, d);
+  for (double v : d) EXPECT_EQ(v, 0.0);
 }
 
 TEST(GaussianParams, ActivationBackwardIsTheChainRule) {
