@@ -47,15 +47,17 @@ constexpr double kVisible = 0.5;  // visibility from which a point counts as see
 }  // namespace
 
 void summarize_fit(FitVideoSummary& s) {
-  double rp = 0, iou = 0;
-  int nrp = 0, niou = 0;
+  double rp = 0, iou = 0, pa = 0;
+  int nrp = 0, niou = 0, npa = 0;
   for (const FitVideoFrameRow& r : s.frames) {
     if (r.dropped) continue;
     if (std::isfinite(r.reprojection_px)) rp += r.reprojection_px, ++nrp;
     if (std::isfinite(r.silhouette_iou)) iou += r.silhouette_iou, ++niou;
+    if (std::isfinite(r.joint_error_mm)) pa += r.joint_error_mm, ++npa;
   }
   s.mean_reprojection_px = nrp ? rp / nrp : NAN;
   s.mean_silhouette_iou = niou ? iou / niou : NAN;
+  s.mean_joint_error_mm = npa ? pa / npa : NAN;
 }
 
 std::string fit_report_json(const FitVideoSummary& s) {
@@ -76,6 +78,10 @@ std::string fit_report_json(const FitVideoSummary& s) {
   j["camera"] = {{"fx", s.camera.fx}, {"fy", s.camera.fy}, {"cx", s.camera.cx}, {"cy", s.camera.cy}};
   j["mean_reprojection_px"] = number_or_null(s.mean_reprojection_px);
   j["mean_silhouette_iou"] = number_or_null(s.mean_silhouette_iou);
+  if (!s.truth.empty()) {
+    j["truth"] = s.truth;
+    j["mean_joint_error_mm"] = number_or_null(s.mean_joint_error_mm);  // PA-MPJPE, pelvis + 21 body joints
+  }
   ojson frames = ojson::array();
   for (const FitVideoFrameRow& r : s.frames) {
     ojson f;
@@ -87,6 +93,7 @@ std::string fit_report_json(const FitVideoSummary& s) {
     if (!r.dropped) f["split"] = split_name(r.split);
     f["reprojection_px"] = number_or_null(r.reprojection_px);
     f["silhouette_iou"] = number_or_null(r.silhouette_iou);
+    if (!s.truth.empty()) f["joint_error_mm"] = number_or_null(r.joint_error_mm);
     frames.push_back(std::move(f));
   }
   j["frames"] = std::move(frames);
@@ -103,14 +110,21 @@ std::string fit_report_table(const FitVideoSummary& s) {
                 int(s.frames.size()), s.decoded, s.kept, s.train, s.test, s.dropped,
                 fixed(s.mean_reprojection_px, 2).c_str(), fixed(s.mean_silhouette_iou, 3).c_str());
   out += line;
-  std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s  %s\n", int(wname), "frame", "source", "kept",
-                "dataset", "reproj", "IoU", "reason");
+  const bool truth = !s.truth.empty();  // a column of the joint error against --truth
+  if (truth) {
+    out.insert(out.size() - 2, "; mean body-joint error after Procrustes " + fixed(s.mean_joint_error_mm, 1) +
+                                   " mm (PA-MPJPE against " + s.truth + ")");
+  }
+  std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), "frame", "source", "kept",
+                "dataset", "reproj", "IoU", truth ? "  PA mm" : "", "reason");
   out += line;
   for (const FitVideoFrameRow& r : s.frames) {
     const std::string kept = r.dropped ? "dropped" : split_name(r.split);
-    std::snprintf(line, sizeof line, "%-*s  %6d  %-7s  %7s  %6s  %6s  %s\n", int(wname), r.name.c_str(), r.source_index,
+    char pa[32] = "";
+    if (truth) std::snprintf(pa, sizeof pa, "  %5s", fixed(r.joint_error_mm, 1).c_str());
+    std::snprintf(line, sizeof line, "%-*s  %6d  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), r.name.c_str(), r.source_index,
                   kept.c_str(), r.dropped ? "-" : std::to_string(r.dataset_frame).c_str(),
-                  fixed(r.reprojection_px, 2).c_str(), fixed(r.silhouette_iou, 3).c_str(), r.reason.c_str());
+                  fixed(r.reprojection_px, 2).c_str(), fixed(r.silhouette_iou, 3).c_str(), pa, r.reason.c_str());
     std::string l = line;
     while (l.size() > 1 && l[l.size() - 2] == ' ') l.erase(l.size() - 2, 1);  // no trailing blanks
     out += l;

@@ -4,6 +4,7 @@
 // the keypoints drawn over them (OUT/fit_contact_sheet.png).
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,7 @@ struct FitVideoFrameRow {
   std::string reason;         // why dropped
   double reprojection_px = 0; // NaN: not measured
   double silhouette_iou = 0;  // NaN: not measured
+  double joint_error_mm = NAN;  // PA-MPJPE against --truth (app/fit_video_truth.h); NaN: not measured
   int dataset_frame = -1;     // row in the written dataset (-1: dropped)
   Split split = Split::train;
 };
@@ -35,6 +37,8 @@ struct FitVideoSummary {
   Camera camera;
   std::vector<FitVideoFrameRow> frames;  // one per frame given to the fit
   double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
+  std::string truth;               // --truth DIR ("" = none): the joint error is reported
+  double mean_joint_error_mm = NAN;  // over kept frames with a value (NaN: none)
 };
 
 // Means over kept frames of the finite values; fills summary.mean_*.

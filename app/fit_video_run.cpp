@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "app/fit_video_input.h"
+#include "app/fit_video_truth.h"
 #include "app/keypoint_tool.h"
 #include "body/lbs.h"
 #include "core/atomic_file.h"
@@ -89,6 +90,8 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   check_input(opt.input);
   const std::string tool = find_keypoint_tool(opt.keypoint_tool);
   check_keypoint_tool(tool);
+  FitVideoTruth truth;
+  if (!opt.truth.empty()) truth = read_fit_video_truth(opt.truth, body);
 
   const std::string pid = std::to_string(::getpid());
   const fs::path work = out + ".fit-work-" + pid, stage = out + ".fit-" + pid;
@@ -103,6 +106,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   const int n = int(in.paths.size());
   say("[1/4] " + std::to_string(n) + " frames of " + std::to_string(in.width) + "x" + std::to_string(in.height) + " (" +
       std::to_string(in.decoded) + (in.is_video ? " decoded)" : " found)"));
+  if (!opt.truth.empty()) check_truth_frames(truth, in.decoded);
 
   // (2) keypoints and masks
   say("[2/4] keypoints and masks (" + tool + ")");
@@ -190,6 +194,13 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   }
   s.kept = int(r.kept.size());
   s.dropped = n - s.kept;
+  if (!opt.truth.empty()) {
+    s.truth = opt.truth;
+    for (size_t k = 0; k < r.kept.size(); ++k) {
+      FitVideoFrameRow& row = s.frames[size_t(r.kept[k])];
+      row.joint_error_mm = body_joint_pa_error_mm(body, r.params[k], truth.body, truth.params[size_t(row.source_index)]);
+    }
+  }
   summarize_fit(s);
   say("[4/4] dataset: " + std::to_string(s.train) + " train + " + std::to_string(s.test) + " test frames");
 

@@ -9,7 +9,8 @@
 //   dataset.json, images/, masks/, smplx/params.npz   the dataset (data/dataset.h)
 //   body_model.npz                                     the body fitted (when save_body)
 //   fit_report.json, fit_report.txt                    per input frame: kept / dropped and why,
-//                                                      reprojection px, silhouette IoU
+//                                                      reprojection px, silhouette IoU (and the
+//                                                      body-joint error with --truth)
 //   fit_contact_sheet.png                              frames, fitted outline, keypoints
 //   work/frames/%06d.png                               the selected input frames
 //   work/keypoints/keypoints/*.json, work/keypoints/masks/*.png   the keypoint tool's output
@@ -42,6 +43,7 @@ struct FitVideoOptions {
                               // "test" (hold out the end of a clip); 0: none
   std::string keypoint_tool;  // tools/keypoints folder ("" = find_keypoint_tool's search)
   std::string mask = "pose";  // the tool's mask: pose | selfie
+  std::string truth;          // --truth DIR: a dataset with the video's true fits (app/fit_video_truth.h); "" = none
   bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
   int sheet_tiles = 40;       // frames on the contact sheet (plus the dropped ones)
   bool progress = true;       // stage lines on stdout, the tool's progress passed through
@@ -57,7 +59,8 @@ void validate_fit_video_options(const FitVideoOptions& opt);
 Split fit_video_split(const FitVideoOptions& opt, int kept_ordinal, int source_index);
 
 // The whole run. `body` draws the fitted outline on the contact sheet (and is saved with
-// save_body); `fit` must have been made for the same body. Throws haha::Error.
+// save_body; with --truth it poses the true fits too when DIR has no body_model.npz); `fit`
+// must have been made for the same body. Throws haha::Error.
 FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit);
 
 }  // namespace haha

@@ -31,6 +31,9 @@ HAHA_COMMAND(fit_video) {
                   "kept frames decoded at or after frame K (before --frames) go to the test split (0: none)")
       ->capture_default_str();
   sub->add_option("--mask", a->o.mask, "person mask of the keypoint tool: pose | selfie")->capture_default_str();
+  sub->add_option("--truth", a->o.truth,
+                  "dataset with the video's true fits (frames in order, e.g. make-test-video.sh's synth/): "
+                  "report the body-joint error after Procrustes (PA-MPJPE)");
   sub->add_option("--keypoint-tool", a->o.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
   sub->add_option("--model", a->body,
                   "SMPL-X model .npz to fit (default: the procedural body, also written to OUT/body_model.npz)");
@@ -41,7 +44,9 @@ HAHA_COMMAND(fit_video) {
     const haha::FitVideoSummary s =
         haha::run_fit_video(a->o, body, [&body](const std::vector<haha::VideoFitInputFrame>& frames,
                                                 const haha::VideoFitOptions& vo) { return haha::fit_video(body, frames, vo); });
-    std::printf("%s: %d frames kept (%d train, %d test), %d dropped; keypoint error %.2f px, silhouette IoU %.3f\n",
+    std::printf("%s: %d frames kept (%d train, %d test), %d dropped; keypoint error %.2f px, silhouette IoU %.3f",
                 s.out.c_str(), s.kept, s.train, s.test, s.dropped, s.mean_reprojection_px, s.mean_silhouette_iou);
+    if (!s.truth.empty()) std::printf("; body-joint error after Procrustes %.1f mm (PA-MPJPE)", s.mean_joint_error_mm);
+    std::printf("\n");
   });
 }

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/fit_video_run.h"
+#include "app/fit_video_truth.h"
 #include "app/keypoint_tool.h"
 #include "app/subprocess.h"
 #include "body/procedural_body.h"
@@ -84,6 +85,7 @@ TEST_F(FitVideoSlowTest, FolderOfFramesBecomesADatasetWithTheOraclesParameters) 
   o.test_every = 2;
   o.focal_px = 321;
   o.save_body = true;
+  o.truth = path("synth");  // no body_model.npz there: the true fits are posed with low_body()
   const FitVideoSummary s = run_fit_video(o, low_body(), std::cref(oracle));
   EXPECT_EQ(oracle.calls, 1);
   EXPECT_EQ(oracle.seen.focal_px, 321);
@@ -120,7 +122,14 @@ TEST_F(FitVideoSlowTest, FolderOfFramesBecomesADatasetWithTheOraclesParameters) 
     EXPECT_EQ(j["frames"][i]["dataset_frame"], i);
     EXPECT_DOUBLE_EQ(j["frames"][i]["reprojection_px"].get<double>(), test::OracleFitter::reprojection(i));
     EXPECT_DOUBLE_EQ(j["frames"][i]["silhouette_iou"].get<double>(), test::OracleFitter::iou(i));
+    // The oracle's parameters are the dataset's fits: their error against the true fits.
+    const double pa = body_joint_pa_error_mm(low_body(), truth_.frames[size_t(i)].params, low_body(),
+                                             truth_.params_true.empty() ? truth_.frames[size_t(i)].params
+                                                                        : truth_.params_true[size_t(i)]);
+    EXPECT_NEAR(j["frames"][i]["joint_error_mm"].get<double>(), pa, 1e-6) << i;
   }
+  EXPECT_EQ(j["truth"], path("synth"));
+  EXPECT_TRUE(j["mean_joint_error_mm"].is_number());
   EXPECT_NE(read_text_file(path("out/fit_report.txt")).find("000003.png"), std::string::npos);
   const Image sheet = read_image(path("out/fit_contact_sheet.png"));
   EXPECT_GT(sheet.width, 4 * 128);

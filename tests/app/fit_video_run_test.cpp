@@ -320,6 +320,26 @@ TEST_F(FitVideoRunTest, ReportNamesEveryFrameAndWhyItWasDropped) {
   EXPECT_EQ(sheet_label(s.frames[0]), "frame 0 2.5PX IOU0.80");
 }
 
+TEST_F(FitVideoRunTest, ReportWithTruthAddsTheJointErrorColumnAndMean) {
+  FitVideoSummary s = two_frame_summary();
+  EXPECT_EQ(fit_report_table(s).find("PA"), std::string::npos);  // no --truth: no column
+  s.truth = "synth";
+  s.frames[0].joint_error_mm = 31.25;
+  summarize_fit(s);
+  EXPECT_DOUBLE_EQ(s.mean_joint_error_mm, 31.25);
+  const auto j = nlohmann::json::parse(fit_report_json(s));
+  EXPECT_EQ(j["truth"], "synth");
+  EXPECT_DOUBLE_EQ(j["mean_joint_error_mm"].get<double>(), 31.25);
+  EXPECT_DOUBLE_EQ(j["frames"][0]["joint_error_mm"].get<double>(), 31.25);
+  EXPECT_TRUE(j["frames"][1]["joint_error_mm"].is_null());
+  const std::string table = fit_report_table(s);
+  EXPECT_NE(table.find("mean body-joint error after Procrustes 31.2 mm (PA-MPJPE against synth)\n\n"),
+            std::string::npos) << table;
+  EXPECT_NE(table.find("\nframe 0       0  train          0    2.50   0.800   31.2\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("\nframe 1       1  dropped        -       -       -      -  nobody in the frame\n"),
+            std::string::npos) << table;
+}
+
 TEST_F(FitVideoRunTest, SheetShowsEveryDroppedFrame) {
   std::vector<FitVideoFrameRow> rows(100);
   rows[37].dropped = rows[38].dropped = true;

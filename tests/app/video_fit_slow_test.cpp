@@ -15,6 +15,7 @@
 #include "app/video_fit.h"
 #include "body/procedural_body.h"
 #include "body/rotation.h"
+#include "core/procrustes.h"
 #include "support/video_fit_fixtures.h"
 #include "train/silhouette_fit.h"
 
@@ -99,7 +100,7 @@ std::pair<double, double> joint_errors_mm(const BodyModel& body, const Clip& c, 
       b.push_back(Vec3d::load(&jf[size_t(3 * j)]));
       e += norm(a.back() - b.back());
     }
-    pa += test::procrustes_error(a, b);
+    pa += procrustes_error(a, b);
     raw += e / 22;
   }
   return {1000 * pa / double(r.kept.size()), 1000 * raw / double(r.kept.size())};

@@ -1,0 +1,36 @@
+// The end-to-end measurement of `haha fit-video --truth DIR` (issue 18): DIR is a native
+// dataset holding the true fits of the video's frames in order (e.g. the synth/ folder of
+// scripts/make-test-video.sh, whose video.mp4 is its frames 0..N-1), and each kept frame's
+// fit is compared with the true fit of the frame it was decoded as (its source_index): the
+// body-joint error (pelvis + 21 body joints) after a per-frame similarity Procrustes
+// alignment (PA-MPJPE, core/procrustes.h), in mm.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "body/body_model.h"
+#include "body/smplx_params.h"
+
+namespace haha {
+
+struct FitVideoTruth {
+  std::string dir;
+  std::vector<SmplxParams> params;  // per DIR frame, in order: its true fits (smplx_true) when it has them, else its fits
+  BodyModel body;                   // DIR/body_model.npz; else the body given to read_fit_video_truth
+  bool own_body = false;            // whether body came from DIR
+};
+
+// Reads DIR's dataset.json and fits (pixels are not decoded) and its body. One haha::Error
+// line naming DIR when it is not a dataset or holds no frames.
+FitVideoTruth read_fit_video_truth(const std::string& dir, const BodyModel& fallback_body);
+
+// The truth must cover every decoded frame of the video: one line naming DIR otherwise.
+void check_truth_frames(const FitVideoTruth& t, int decoded_frames);
+
+// PA-MPJPE (mm) over the pelvis and the 21 body joints of `fit` posed with `fit_body` against
+// `truth` posed with `truth_body`.
+double body_joint_pa_error_mm(const BodyModel& fit_body, const SmplxParams& fit, const BodyModel& truth_body,
+                              const SmplxParams& truth);
+
+}  // namespace haha
