@@ -142,6 +142,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   vo.focal_px = opt.focal_px;
   vo.fov_deg = opt.fov_deg;
   vo.progress = opt.progress;
+  vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
   const VideoFitResult r = fit(frames, vo);
   check_fit_result(r, n, in.width, in.height);
   if (r.kept.empty()) fail(opt.input, "no frame could be fitted (see the reasons above; nothing written)");

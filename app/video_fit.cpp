@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "app/video_fit_frames.h"
+#include "app/video_fit_world_init.h"
 #include "body/rotation.h"
 #include "core/error.h"
 #include "train/adam.h"
@@ -33,6 +34,9 @@ void check_input(const std::vector<VideoFitInputFrame>& frames) {
     if (k.width < 1 || k.height < 1) fail(where, "frame has no pixels");
     if (k.has_person() && k.body.size() != size_t(kBodyKeypoints))
       fail(where, "body has " + std::to_string(k.body.size()) + " points, expected " + std::to_string(kBodyKeypoints));
+    if (k.has_person() && !k.body_world.empty() && k.body_world.size() != size_t(kBodyKeypoints))
+      fail(where, "body_world has " + std::to_string(k.body_world.size()) + " points, expected " +
+                      std::to_string(kBodyKeypoints));
     if (!f.mask.empty() && (f.mask.width != k.width || f.mask.height != k.height || f.mask.channels < 1))
       fail(where, "mask is " + std::to_string(f.mask.width) + " x " + std::to_string(f.mask.height) +
                       ", the frame " + std::to_string(k.width) + " x " + std::to_string(k.height));
@@ -78,12 +82,14 @@ SilhouetteFrame shrink(const Image& mask, const Camera& cam, int max_side) {
   return s;
 }
 
-// Global orient and transl of one frame from its 2D torso: depth from the torso size and
-// the focal, roll from the torso's direction in the image, heading the best of
-// kYawCandidates (facing the camera, away from it and between) under the first stage's
-// point weights.
-void initialise_frame(const VideoFitObjective<float>& obj, const VideoFitTargets& tg, const KeypointsFrame& k,
-                      const Camera& cam, const std::vector<float>& rest_joints, float* q) {
+// Global orient and transl of one frame: transl from its 2D torso (depth from the torso size
+// and the focal); the orient and the limbs from BlazePose's world points where the frame has
+// them (app/video_fit_world_init.h), else from the 2D torso: roll from the torso's direction
+// in the image, heading the best of kYawCandidates (facing the camera, away from it and
+// between) under the first stage's point weights.
+void initialise_frame(const BodyModel& body, const VideoFitObjective<float>& obj, const VideoFitTargets& tg,
+                      const KeypointsFrame& k, const Camera& cam, const std::vector<float>& rest_joints,
+                      double min_visibility, float* q) {
   namespace bp = blazepose;
   auto J = [&](int j) { return Vec3d(rest_joints[size_t(3 * j)], rest_joints[size_t(3 * j + 1)], rest_joints[size_t(3 * j + 2)]); };
   const Vec3d S = 0.5 * (J(16) + J(17)), Hm = 0.5 * (J(1) + J(2));
@@ -98,6 +104,7 @@ void initialise_frame(const VideoFitObjective<float>& obj, const VideoFitTargets
   const double roll = (std::abs(sx - hx) + std::abs(sy - hy) > 0) ? std::atan2(sx - hx, -(sy - hy)) : 0.0;
   std::fill(q, q + kVideoFitFrameParams, 0.0f);
   for (int c = 0; c < 3; ++c) q[kVideoFitPoseValues + c] = float(pelvis[c] - J(0)[c]);
+  if (init_pose_from_world(body, obj.points(), tg, rest_joints, cam.cast<double>().R, min_visibility, q)) return;
   VideoFitTargets one = tg;
   one.linked = false;
   std::vector<float> cand(kVideoFitFrameParams);
@@ -163,7 +170,11 @@ VideoFitResult fit_video(const BodyModel& body, const std::vector<VideoFitInputF
   VideoFitResult out;
   out.camera = make_camera(W, H, opt);
   const std::vector<VideoFitPoint> points = video_fit_points(body);
+  if (!(opt.frame_interval_s > 0) || !std::isfinite(opt.frame_interval_s))
+    fail("video fit", "the time between frames must be > 0 seconds");
   VideoFitSelection sel = select_video_frames(frames, points, opt);
+  if (!opt.use_world)
+    for (VideoFitTargets& t : sel.targets) t.world.clear();
   out.report.resize(frames.size());
   for (size_t i = 0; i < frames.size(); ++i) {
     out.report[i].frame = frames[i].keypoints.frame;
@@ -196,8 +207,8 @@ VideoFitResult fit_video(const BodyModel& body, const std::vector<VideoFitInputF
     std::vector<float> rest_v(size_t(body.num_verts) * 3), rest_j(size_t(kNumJoints) * 3);
     Lbs<float>(body).forward(SmplxParams{}, rest_v.data(), rest_j.data(), nullptr);
     for (int f = 0; f < N; ++f)
-      initialise_frame(init_obj, sel.targets[size_t(f)], frames[size_t(sel.kept[size_t(f)])].keypoints, out.camera,
-                       rest_j, params.data() + size_t(f) * kVideoFitFrameParams);
+      initialise_frame(body, init_obj, sel.targets[size_t(f)], frames[size_t(sel.kept[size_t(f)])].keypoints,
+                       out.camera, rest_j, opt.min_visibility, params.data() + size_t(f) * kVideoFitFrameParams);
   }
 
   // Silhouette frames (kept frames with a mask).
@@ -261,9 +272,9 @@ VideoFitResult fit_video(const BodyModel& body, const std::vector<VideoFitInputF
       obj.evaluate(sel.targets, params.data(), it < iters ? grad.data() : nullptr, extra, &terms);
       const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (opt.progress && (it % every == 0 || it == iters))
-        std::printf("video fit: stage %d/%d (%s), iteration %d/%d, loss %.4e (keypoints %.3e, prior %.2e, smooth %.2e%s), "
+        std::printf("video fit: stage %d/%d (%s), iteration %d/%d, loss %.4e (keypoints %.3e, world %.2e, prior %.2e, smooth %.2e%s), "
                     "%s, ETA %s\n",
-                    stage, stages, name, it, iters, terms.total(), terms.keypoints, terms.prior, terms.smooth,
+                    stage, stages, name, it, iters, terms.total(), terms.keypoints, terms.world, terms.prior, terms.smooth,
                     extra ? (", silhouette " + std::to_string(terms.extra).substr(0, 8)).c_str() : "", seconds(el).c_str(),
                     seconds(it > 0 ? el / it * (iters - it) : 0).c_str());
       if (it == iters) break;

@@ -26,6 +26,8 @@ struct VideoFitOptions {
   double focal_px = 0;  // > 0: focal length in pixels; 0: from fov_deg and the frame width
   double fov_deg = 55;  // horizontal field of view guessed when focal_px is 0
   bool progress = true; // stage, iteration, loss, ETA on stdout
+  double frame_interval_s = 1.0 / 30;  // seconds between consecutive input frames (the smoothness'
+                                       // scale, app/video_fit_objective.h)
 
   // Which frames are fitted (app/video_fit_frames.h).
   double min_score = 0.5;          // detection score below this: dropped
@@ -39,6 +41,8 @@ struct VideoFitOptions {
   // SMPLify: global orient and transl on the torso and face points; then everything; then,
   // where frames have masks, everything plus the silhouette term.
   VideoFitWeights weights;
+  bool use_world = true;  // BlazePose's world points (when the keypoints have them) seed the pose and
+                          // feed the bone-direction term; false: ignored (the 2D-only fit)
   int num_betas = 10;
   int iters_global = 60, iters_body = 300, iters_silhouette = 40;
   double lr_orient = 0.03, lr_body = 0.03, lr_transl = 0.02, lr_betas = 0.03;  // Adam, per stage

@@ -84,8 +84,11 @@ VideoFitSelection select_video_frames(const std::vector<VideoFitInputFrame>& fra
       t.x.push_back(q.x);
       t.y.push_back(q.y);
       t.vis.push_back(inside(k, q) ? q.score : 0.0);
+      if (!k.body_world.empty())
+        for (int c = 0; c < 3; ++c) t.world.push_back(k.body_world[size_t(p.blazepose)][size_t(c)]);
     }
     t.linked = !s.kept.empty() && s.kept.back() == i - 1;
+    t.dt = opt.frame_interval_s;
     s.kept.push_back(i);
     s.targets.push_back(std::move(t));
   }

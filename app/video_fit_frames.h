@@ -5,7 +5,8 @@
 // when those points lie outside it), or the torso jumps from the previous frame (a scene
 // cut: its centre moves more than cut_jump torso lengths or its length changes by more
 // than cut_scale). Kept frames link to the previous one for the temporal terms only when it
-// is the previous input frame and was kept.
+// is the previous input frame and was kept (opt.frame_interval_s before it). A frame's
+// BlazePose world points, when it has them, become its targets' world points.
 #pragma once
 
 #include <string>

@@ -38,7 +38,7 @@ constexpr Limit kLimits[] = {{3 * 4 + 0, 1}, {3 * 5 + 0, 1}, {3 * 18 + 1, -1}, {
 template <class T>
 VideoFitObjective<T>::VideoFitObjective(const BodyModel& body, std::vector<VideoFitPoint> points,
                                         const CameraT<T>& camera, int num_betas, const VideoFitWeights& w)
-    : lbs_(body), points_(std::move(points)), cam_(camera), nb_(std::max(0, std::min(num_betas, body.num_shape))), w_(w) {
+    : lbs_(body), points_(std::move(points)), bones_(video_fit_bones(points_)), cam_(camera), nb_(std::max(0, std::min(num_betas, body.num_shape))), w_(w) {
   for (const VideoFitPoint& p : points_) {
     if ((p.joint < 0) == (p.vertex < 0) || p.joint >= kNumJoints || p.vertex >= body.num_verts)
       fail("video fit", "point " + p.name + " names neither one joint nor one vertex of the body");
@@ -98,7 +98,7 @@ T VideoFitObjective<T>::evaluate(const std::vector<VideoFitTargets>& targets, co
   LbsCache<T> cache;
   for (int f = 0; f < N; ++f) {
     const VideoFitTargets& tg = targets[size_t(f)];
-    if (tg.x.size() != K || tg.y.size() != K || tg.vis.size() != K)
+    if (tg.x.size() != K || tg.y.size() != K || tg.vis.size() != K || (!tg.world.empty() && tg.world.size() != 3 * K))
       fail("video fit", "targets of frame " + std::to_string(f) + " do not match the correspondence");
     const T* q = params + size_t(f) * kVideoFitFrameParams;
     pose_frame(q, betas, pose, verts, joints, grad ? &cache : nullptr);
@@ -138,6 +138,37 @@ T VideoFitObjective<T>::evaluate(const std::vector<VideoFitTargets>& targets, co
         d[0] += gw.x, d[1] += gw.y, d[2] += gw.z;
       }
     }
+    if (w_.world > 0 && !tg.world.empty()) {
+      const T sw2 = T(w_.world_sigma * w_.world_sigma);
+      double e_w = 0;
+      for (const VideoFitBone& b : bones_) {
+        const T c = T(w_.world * std::min(tg.vis[size_t(b.a)], tg.vis[size_t(b.b)]));
+        const double* wa = &tg.world[size_t(3 * b.a)];
+        const double* wb = &tg.world[size_t(3 * b.b)];
+        Vec3d e(wb[0] - wa[0], wb[1] - wa[1], wb[2] - wa[2]);
+        const double el = norm(e);
+        if (!(c > T(0)) || !(el > 1e-6)) continue;
+        e = e / el;
+        const T* xa = &joints[size_t(3 * points_[size_t(b.a)].joint)];
+        const T* xb = &joints[size_t(3 * points_[size_t(b.b)].joint)];
+        const Vec3<T> u = cam_.R * (Vec3<T>::load(xb) - Vec3<T>::load(xa));  // camera axes
+        const T l = norm(u);
+        if (!(l > T(1e-9))) continue;
+        const Vec3<T> d = u / l, r = d - Vec3<T>(T(e.x), T(e.y), T(e.z));
+        const T s = dot(r, r);
+        e_w += double(c * sw2 * s / (sw2 + s));
+        if (!grad) continue;
+        const T drho = c * sw2 * sw2 / ((sw2 + s) * (sw2 + s));
+        const Vec3<T> gd = (T(2) * drho) * r;                    // dE/dd
+        const Vec3<T> gu = (gd - dot(gd, d) * d) / l;            // through d = u / |u|
+        const Vec3<T> gw = invN * (Rt * gu);
+        T* da = &d_joints[size_t(3 * points_[size_t(b.a)].joint)];
+        T* db = &d_joints[size_t(3 * points_[size_t(b.b)].joint)];
+        da[0] -= gw.x, da[1] -= gw.y, da[2] -= gw.z;
+        db[0] += gw.x, db[1] += gw.y, db[2] += gw.z;
+      }
+      t.world += e_w / N;
+    }
     t.keypoints += e_kp / N;
     t.behind += e_behind / N;
     if (extra) t.extra += double(extra(f, verts.data(), grad ? d_verts.data() : nullptr));
@@ -165,10 +196,13 @@ T VideoFitObjective<T>::evaluate(const std::vector<VideoFitTargets>& targets, co
     }
     // Smoothness with the previous frame.
     if (tg.linked && f > 0) {
+      if (!(tg.dt > 0) || !std::isfinite(tg.dt))
+        fail("video fit", "frame " + std::to_string(f) + ": time since the previous frame must be > 0");
+      const double time_scale = (kVideoFitSmoothInterval / tg.dt) * (kVideoFitSmoothInterval / tg.dt);
       const T* qp = q - kVideoFitFrameParams;
       T* gp = grad ? gq - kVideoFitFrameParams : nullptr;
       for (int k = 0; k < kVideoFitFrameParams; ++k) {
-        const T w = T(k < kVideoFitPoseValues ? w_.smooth_pose : w_.smooth_transl);
+        const T w = T(time_scale * (k < kVideoFitPoseValues ? w_.smooth_pose : w_.smooth_transl));
         const T d = q[k] - qp[k];
         t.smooth += double(w * d * d) / N;
         if (grad) {

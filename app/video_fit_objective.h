@@ -7,10 +7,17 @@
 //                 + w_pose sum_j alpha_j |theta_fj|^2                       prior towards rest
 //                 + w_limit sum_{knees, elbows} max(0, -s theta_bend)^2     bend one way only
 //                 + w_behind sum_k max(0, z_min - Z_fk)^2 ]                 keypoints behind the camera
-//     + 1/N sum_{f linked to f-1} [ w_sp |theta_f - theta_f-1|^2 + w_st |t_f - t_f-1|^2 ]
+//                 + w_world sum_b v_fb rho_w(|d_fb - e_fb|^2) ]                   3D bone directions
+//     + 1/N sum_{f linked to f-1} [ w_sp |theta_f - theta_f-1|^2 + w_st |t_f - t_f-1|^2 ] (dt_ref / dt_f)^2
 //     + w_betas |betas|^2  (+ an optional per-frame term on the posed vertices, e.g. the silhouette)
 //
 // rho(s) = sigma^2 s / (sigma^2 + s) (Geman-McClure), c_fk = point weight x visibility.
+// The bone term (BlazePose's world points, when a frame has them): d_fb is the unit direction
+// of bone b (app/video_fit_points.h, video_fit_bones) of the posed body in camera axes, e_fb
+// the unit direction between the bone's two world points (BlazePose's world frame is
+// image-aligned: camera axes up to a translation), v_fb the smaller visibility of its two
+// ends and rho_w Geman-McClure with sigma world_sigma: a weak depth cue that tells an elbow
+// bent towards the camera from a straight arm, robust to BlazePose's flips.
 // X_fk: the SMPL-X joint or vertex of point k (app/video_fit_points.h) posed by LBS
 // (body/lbs.h, whose backward gives the parameter gradient). pi projects through the camera
 // with the depth clamped to z_min, so a point behind the camera gives no division by zero;
@@ -32,6 +39,10 @@ namespace haha {
 constexpr int kVideoFitPoseValues = 66;  // global orient + 21 body joints
 constexpr int kVideoFitFrameParams = kVideoFitPoseValues + 3;
 constexpr double kVideoFitMinDepth = 0.1;  // metres: z_min of the projection
+// The smoothness weights are per frame pair dt_ref = 1/30 s apart; a pair dt apart is
+// weighted (dt_ref / dt)^2 (a penalty on the squared velocity), so the balance between the
+// data and the smoothness does not change with the frame rate or the --frames step.
+constexpr double kVideoFitSmoothInterval = 1.0 / 30;
 
 struct VideoFitWeights {
   double keypoints = 1.0;      // w_kp
@@ -42,19 +53,23 @@ struct VideoFitWeights {
   double smooth_transl = 1e-2; // w_st (m^-2)
   double betas = 1e-4;         // w_betas
   double behind = 1.0;         // w_behind (m^-2)
+  double world = 2e-3;         // w_world (0: off); chosen by measurement, docs/fit-video.md
+  double world_sigma = 0.5;    // Geman-McClure sigma of the bone term (unit-vector distance)
 };
 
 // One frame's 2D targets, indexed like the correspondence.
 struct VideoFitTargets {
   std::vector<double> x, y;  // pixels
   std::vector<double> vis;   // visibility in [0, 1] (0: not used)
+  std::vector<double> world; // empty, or 3 per point: its BlazePose world point (metres, camera axes)
   bool linked = false;       // smoothness with the previous frame of the list
+  double dt = kVideoFitSmoothInterval;  // seconds since that frame (> 0)
 };
 
 // The parts of E (for progress and tests).
 struct VideoFitTerms {
-  double keypoints = 0, prior = 0, limits = 0, behind = 0, smooth = 0, betas = 0, extra = 0;
-  double total() const { return keypoints + prior + limits + behind + smooth + betas + extra; }
+  double keypoints = 0, prior = 0, limits = 0, behind = 0, smooth = 0, betas = 0, extra = 0, world = 0;
+  double total() const { return keypoints + prior + limits + behind + smooth + betas + extra + world; }
 };
 
 // The prior factor alpha of pose value k in [0, 66) (the global orient's are 0).
@@ -92,6 +107,7 @@ class VideoFitObjective {
 
   Lbs<T> lbs_;
   std::vector<VideoFitPoint> points_;
+  std::vector<VideoFitBone> bones_;
   std::vector<double> point_w_;
   CameraT<T> cam_;
   int nb_;

@@ -115,6 +115,25 @@ int geometric_vertex(const Rest& r, int blazepose) {
 
 }  // namespace
 
+std::vector<VideoFitBone> video_fit_bones(const std::vector<VideoFitPoint>& points) {
+  constexpr int kBones[][2] = {{bp::left_shoulder, bp::left_elbow}, {bp::left_elbow, bp::left_wrist},
+                               {bp::right_shoulder, bp::right_elbow}, {bp::right_elbow, bp::right_wrist},
+                               {bp::left_hip, bp::left_knee},        {bp::left_knee, bp::left_ankle},
+                               {bp::right_hip, bp::right_knee},      {bp::right_knee, bp::right_ankle},
+                               {bp::right_shoulder, bp::left_shoulder}, {bp::right_hip, bp::left_hip}};
+  auto find = [&](int blaze) {
+    for (size_t k = 0; k < points.size(); ++k)
+      if (points[k].blazepose == blaze && points[k].joint >= 0) return int(k);
+    return -1;
+  };
+  std::vector<VideoFitBone> bones;
+  for (const auto& b : kBones) {
+    const int a = find(b[0]), c = find(b[1]);
+    if (a >= 0 && c >= 0) bones.push_back({a, c});
+  }
+  return bones;
+}
+
 std::vector<VideoFitPoint> video_fit_points(const BodyModel& body) {
   const std::string where = body.source.empty() ? "video fit" : body.source;
   std::vector<VideoFitPoint> pts;

@@ -33,6 +33,16 @@ constexpr double kVideoFitHipWeight = 0.4;
 constexpr double kVideoFitFaceWeight = 0.3;  // nose, eyes, ears: five points close together
 constexpr double kVideoFitFootWeight = 0.7;  // heels, toes
 
+// A bone of the 3D direction term (app/video_fit_objective.h): from point a to point b,
+// indices into the correspondence.
+struct VideoFitBone {
+  int a = -1, b = -1;
+};
+
+// The bones whose directions BlazePose's world points give: upper and lower arms and legs,
+// the shoulder and hip lines (those of `points` present; both ends joints).
+std::vector<VideoFitBone> video_fit_bones(const std::vector<VideoFitPoint>& points);
+
 // The correspondence for `body` (throws haha::Error when the body has no vertex that can
 // serve as one of the surface points, e.g. a body without a head).
 std::vector<VideoFitPoint> video_fit_points(const BodyModel& body);

@@ -1,8 +1,8 @@
 // Accuracy of the video fit (app/video_fit.h) on synthetic keypoints: a clip of the
 // procedural body (shared betas, a turn from one side to the other, arms and legs moving,
 // a sideways walk) seen by a static 512 px camera; its correspondence points projected, 2.5
-// px noise, 10 % visibility dropouts, BlazePose-like hips, written as keypoint JSON and read
-// back. The fitted body joints (pelvis + 21) after per-frame similarity Procrustes alignment
+// px noise, 10 % visibility dropouts, BlazePose-like hips, with or without BlazePose-like
+// world points (4.5 cm noise), written as keypoint JSON and read back. The fitted body joints (pelvis + 21) after per-frame similarity Procrustes alignment
 // are measured against the 50 mm (mean over the frames). With masks (the true body's
 // silhouette) the third stage runs and the silhouette IoU is reported.
 #include <gtest/gtest.h>
@@ -54,7 +54,8 @@ struct Clip {
   std::vector<VideoFitInputFrame> frames;
 };
 
-Clip make_clip(const BodyModel& body, int n, bool masks) {
+// world_noise_m < 0: no world points (2D only).
+Clip make_clip(const BodyModel& body, int n, bool masks, double world_noise_m = -1) {
   Clip c;
   Camera cam;
   cam.width = cam.height = 512;
@@ -71,7 +72,9 @@ Clip make_clip(const BodyModel& body, int n, bool masks) {
     c.truth.push_back(true_pose(f, n, betas));
     char name[32];
     std::snprintf(name, sizeof name, "frame_%04d.png", f);
-    const KeypointsFrame k = test::synthetic_keypoints(lbs, pts, c.truth.back(), cam, name, {}, rng);
+    test::SyntheticKeypointOptions ko;
+    ko.world_noise_m = world_noise_m;
+    const KeypointsFrame k = test::synthetic_keypoints(lbs, pts, c.truth.back(), cam, name, ko, rng);
     VideoFitInputFrame in;
     in.keypoints = parse_keypoints_json(test::keypoints_json(k), std::string(name) + ".json");
     if (masks) {
@@ -111,28 +114,41 @@ const BodyModel& body() {
   return b;
 }
 
-// The bar is 50 mm. Measured here: 50.6 mm (30 of 32 frames kept): the remaining
-// error is mostly the monocular depth ambiguity of the arms (an elbow bent towards the
-// camera vs a straight arm swung forward) in the frontal frames. The check below guards
-// against regressions; reaching the bar needs a depth cue (BlazePose's world points).
-TEST(VideoFitSlow, SyntheticKeypointsGiveBodyJointsNear50mmAfterProcrustes) {
+// One fit of the 32-frame clip: PA-MPJPE (mm) after the checks every run must pass.
+double fit_clip(double world_noise_m, const char* what, const VideoFitWeights& w = {}) {
   const int n = 32;
-  const Clip c = make_clip(body(), n, false);
+  const Clip c = make_clip(body(), n, false, world_noise_m);
   VideoFitOptions o;
   o.focal_px = 550;
+  o.weights = w;
+  o.progress = false;
   const auto t0 = std::chrono::steady_clock::now();
   const VideoFitResult r = fit_video(body(), c.frames, o);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const VideoFitFrameReport& f : r.report)
     if (f.dropped) std::printf("%s dropped: %s\n", f.frame.c_str(), f.reason.c_str());
-  ASSERT_GE(4 * r.kept.size(), 3 * c.frames.size());  // dropouts may hide both shoulders or both hips
+  EXPECT_GE(4 * r.kept.size(), 3 * c.frames.size());  // dropouts may hide both shoulders or both hips
   const auto [pa, raw] = joint_errors_mm(body(), c, r);
   double rp = 0;
   for (int i : r.kept) rp += r.report[size_t(i)].reprojection_px;
-  std::printf("video fit, %d frames (%zu kept), keypoints only: PA-MPJPE %.1f mm, MPJPE %.1f mm, reprojection %.2f px, %.1f s\n",
-              n, r.kept.size(), pa, raw, rp / double(r.kept.size()), secs);
-  EXPECT_LE(pa, 60.0);
+  std::printf("video fit, %d frames (%zu kept), %s: PA-MPJPE %.1f mm, MPJPE %.1f mm, reprojection %.2f px, %.1f s\n", n,
+              r.kept.size(), what, pa, raw, rp / double(r.kept.size()), secs);
   EXPECT_LT(rp / double(r.kept.size()), 10.0);
+  return pa;
+}
+
+// The bar is 50 mm. Keypoints only (body_world null), the remaining error is mostly
+// the monocular depth ambiguity of the arms (an elbow bent towards the camera vs a straight
+// arm swung forward) in the frontal frames: measured 42.2 mm (30 of 32 frames kept; 50.6
+// mm with the hips shifted in 2D rather than 3D, the clip's spread; 47.7 mm mean over six
+// noise seeds). BlazePose's world points (4.5 cm noise, tests/support/video_fit_fixtures.h)
+// tell them apart: measured 22.7 mm (29.3 mm mean over six seeds).
+TEST(VideoFitSlow, SyntheticKeypointsWithWorldPointsGiveBodyJointsWithin50mmAfterProcrustes) {
+  EXPECT_LE(fit_clip(0.045, "keypoints + world points"), 50.0);
+}
+
+TEST(VideoFitSlow, KeypointsOnlyStillFit) {
+  EXPECT_LE(fit_clip(-1, "keypoints only"), 60.0);  // regression guard (measured 50.6 mm)
 }
 
 TEST(VideoFitSlow, MasksAddTheSilhouetteStageAndReportIou) {

@@ -13,6 +13,7 @@
 #include "app/video_fit_frames.h"
 #include "app/video_fit_objective.h"
 #include "app/video_fit_points.h"
+#include "app/video_fit_world_init.h"
 #include "body/procedural_body.h"
 #include "body/rotation.h"
 #include "core/error.h"
@@ -78,7 +79,9 @@ std::vector<double> random_params(int n, int nb, std::mt19937& rng) {
   return p;
 }
 
-// Targets near the projections (some beyond the Geman-McClure knee), random visibility.
+// Targets near the projections (some beyond the Geman-McClure knee), random visibility,
+// world points scattered around the hips (bone directions anywhere, some beyond the knee of
+// the bone term), frames 1/20 s apart.
 std::vector<VideoFitTargets> random_targets(const VideoFitObjective<double>& obj, const std::vector<double>& p, int n,
                                             std::mt19937& rng) {
   std::normal_distribution<double> g(0.0, 15.0);
@@ -93,8 +96,10 @@ std::vector<VideoFitTargets> random_targets(const VideoFitObjective<double>& obj
       t[size_t(f)].x.push_back(pu[k] + far * g(rng));
       t[size_t(f)].y.push_back(pv[k] + far * g(rng));
       t[size_t(f)].vis.push_back(u(rng));
+      for (int c = 0; c < 3; ++c) t[size_t(f)].world.push_back(0.5 * (u(rng) - 0.5));
     }
     t[size_t(f)].linked = f > 0;
+    t[size_t(f)].dt = 0.05;
   }
   return t;
 }
@@ -102,6 +107,7 @@ std::vector<VideoFitTargets> random_targets(const VideoFitObjective<double>& obj
 VideoFitWeights strong_weights() {  // every term well above rounding in the check
   VideoFitWeights w;
   w.pose_prior = 1e-2, w.angle_limit = 0.5, w.smooth_pose = 0.1, w.smooth_transl = 0.3, w.betas = 1e-2, w.behind = 2;
+  w.world = 0.2, w.world_sigma = 0.7;
   return w;
 }
 
@@ -161,7 +167,18 @@ TEST(VideoFitObjective, GradientMatchesFiniteDifferencesInDouble) {
   EXPECT_GT(terms.smooth, 0);
   EXPECT_GT(terms.betas, 0);
   EXPECT_GT(terms.extra, 0);
+  EXPECT_GT(terms.world, 0);
   EXPECT_LT(gradient_error(obj, t, p, extra), 1e-5);
+  // The bone term alone (its gradient is small beside the keypoints').
+  VideoFitWeights only_world;
+  only_world.keypoints = 0, only_world.pose_prior = 0, only_world.smooth_pose = only_world.smooth_transl = 0;
+  only_world.betas = 0, only_world.world = 1;
+  const VideoFitObjective<double> wobj(small_body(), small_points(), rotated_camera(), nb, only_world);
+  VideoFitTerms wt;
+  wobj.evaluate(t, p.data(), nullptr, {}, &wt);
+  EXPECT_GT(wt.world, 0);
+  EXPECT_EQ(wt.keypoints, 0);
+  EXPECT_LT(gradient_error(wobj, t, p, {}), 1e-5);
 }
 
 TEST(VideoFitObjective, PointBehindTheCameraIsFiniteAndPulledForward) {
@@ -219,6 +236,136 @@ TEST(VideoFitObjective, GemanMcClureBoundsTheOutlierCost) {
   obj.evaluate(t, p.data(), nullptr, {}, &far);
   EXPECT_GT(far.keypoints, near.keypoints);
   EXPECT_LE(far.keypoints - near.keypoints, small_points()[0].weight * w.gm_sigma * w.gm_sigma + 1e-12);
+}
+
+// World points of frame parameters q: the posed points in camera axes, hip-centred.
+std::vector<double> exact_world(const VideoFitObjective<double>& obj, const BodyModel& body, const CameraT<double>& cam,
+                                const double* q, const double* betas, int nb) {
+  std::vector<double> v(size_t(body.num_verts) * 3), j(size_t(kNumJoints) * 3), w;
+  Lbs<double>(body).forward(VideoFitObjective<double>::to_params(q, betas, nb), v.data(), j.data(), nullptr);
+  for (const VideoFitPoint& p : obj.points()) {
+    const double* x = p.joint >= 0 ? &j[size_t(3 * p.joint)] : &v[size_t(3 * p.vertex)];
+    const Vec3d c = cam.to_camera(Vec3d(x[0], x[1], x[2])) - cam.to_camera(Vec3d::load(&j[0]));
+    w.insert(w.end(), {c.x, c.y, c.z});
+  }
+  return w;
+}
+
+TEST(VideoFitObjective, BoneTermIsZeroOnTheTruthAndTellsDepthFlips) {
+  std::mt19937 rng(21);
+  const int nb = 2;
+  VideoFitWeights w;
+  w.keypoints = 0, w.pose_prior = 0, w.angle_limit = 0, w.betas = 0, w.world = 1;
+  const CameraT<double> cam = rotated_camera();
+  const VideoFitObjective<double> obj(small_body(), small_points(), cam, nb, w);
+  const std::vector<double> p = random_params(1, nb, rng);
+  std::vector<VideoFitTargets> t = random_targets(obj, p, 1, rng);
+  std::fill(t[0].vis.begin(), t[0].vis.end(), 1.0);
+  t[0].world = exact_world(obj, small_body(), cam, p.data(), p.data() + kVideoFitFrameParams, nb);
+  VideoFitTerms exact, flipped, hidden;
+  obj.evaluate(t, p.data(), nullptr, {}, &exact);
+  EXPECT_LT(exact.world, 1e-12);  // rounding only
+  // Mirrored in depth (what the 2D points cannot tell apart): the term sees it.
+  for (size_t k = 2; k < t[0].world.size(); k += 3) t[0].world[k] = -t[0].world[k];
+  obj.evaluate(t, p.data(), nullptr, {}, &flipped);
+  EXPECT_GT(flipped.world, 0.05);
+  // Unseen bones, or world points all at one place (no direction): no term, no NaN.
+  std::fill(t[0].vis.begin(), t[0].vis.end(), 0.0);
+  std::vector<double> g(p.size());
+  obj.evaluate(t, p.data(), g.data(), {}, &hidden);
+  EXPECT_EQ(hidden.world, 0.0);
+  std::fill(t[0].vis.begin(), t[0].vis.end(), 1.0);
+  std::fill(t[0].world.begin(), t[0].world.end(), 0.25);
+  obj.evaluate(t, p.data(), g.data(), {}, &hidden);
+  EXPECT_EQ(hidden.world, 0.0);
+  for (double x : g) ASSERT_TRUE(std::isfinite(x));
+}
+
+TEST(VideoFitObjective, SmoothnessDoesNotDependOnTheFrameRate) {
+  // A body moving at a constant rate, sampled at 30 and at 10 frames per second: the same
+  // smoothness per frame (the squared velocity), so the same balance with the data.
+  VideoFitWeights w;
+  w.keypoints = 0, w.pose_prior = 0, w.angle_limit = 0, w.betas = 0, w.behind = 0;
+  const VideoFitObjective<double> obj(small_body(), small_points(), rotated_camera(), 0, w);
+  std::mt19937 rng(23);
+  const int n = 4;
+  const std::vector<double> base = random_params(n, 0, rng);
+  std::vector<double> rate(kVideoFitFrameParams);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (double& r : rate) r = g(rng);  // per second
+  double smooth[2];
+  for (int i = 0; i < 2; ++i) {
+    const double dt = i == 0 ? 1.0 / 30 : 1.0 / 10;
+    std::vector<double> p = base;
+    for (int f = 0; f < n; ++f)
+      for (int k = 0; k < kVideoFitFrameParams; ++k)
+        p[size_t(f * kVideoFitFrameParams + k)] = base[size_t(k)] + rate[size_t(k)] * dt * f;
+    std::vector<VideoFitTargets> t = random_targets(obj, p, n, rng);
+    for (VideoFitTargets& x : t) x.dt = dt;
+    VideoFitTerms terms;
+    obj.evaluate(t, p.data(), nullptr, {}, &terms);
+    smooth[i] = terms.smooth;
+  }
+  EXPECT_GT(smooth[0], 0);
+  EXPECT_NEAR(smooth[1], smooth[0], 1e-9 * smooth[0]);
+  std::vector<VideoFitTargets> t = random_targets(obj, base, n, rng);
+  t[1].dt = 0;
+  test::expect_error([&] { obj.evaluate(t, base.data(), nullptr); }, {"time since the previous frame"});
+}
+
+TEST(VideoFitWorldInit, RotationBetweenTurnsOneDirectionOntoTheOther) {
+  const Vec3d pairs[][2] = {{{1, 0, 0}, {0, 1, 0}}, {{0.3, -0.2, 0.9}, {-0.5, 0.1, 0.4}}, {{0, 0, 1}, {0, 0, 2}},
+                            {{0, 1, 0}, {0, -3, 0}}, {{1, 2, 3}, {-1, -2, -3}}};
+  for (const auto& ab : pairs) {
+    const Vec3d w = rotation_between(ab[0], ab[1]);
+    const Vec3d r = rodrigues(w) * (ab[0] / norm(ab[0]));
+    EXPECT_LT(norm(r - ab[1] / norm(ab[1])), 1e-9) << ab[0].x << " " << ab[1].x;
+  }
+}
+
+TEST(VideoFitWorldInit, ExactWorldPointsGiveTheOrientAndEveryLimbDirection) {
+  const BodyModel& b = procedural();
+  const std::vector<VideoFitPoint> pts = video_fit_points(b);
+  const CameraT<double> cam = rotated_camera();
+  const VideoFitObjective<double> obj(b, pts, cam, 0, VideoFitWeights{});
+  // A pose with the spine straight (the torso then turns with the global orient alone).
+  std::vector<double> truth(kVideoFitFrameParams, 0.0);
+  const Vec3d orient = matrix_to_axis_angle(rodrigues(Vec3d(3.0, 0, 0)) * rodrigues(Vec3d(0, 2.4, 0)));  // facing away
+  for (int c = 0; c < 3; ++c) truth[size_t(c)] = orient[c];
+  const int limbs[] = {16, 17, 18, 19, 1, 2, 4, 5};
+  std::mt19937 rng(29);
+  std::normal_distribution<double> g(0.0, 0.5);
+  for (int j : limbs)
+    for (int c = 0; c < 3; ++c) truth[size_t(3 * j + c)] = g(rng);
+  truth[kVideoFitPoseValues + 2] = 3;
+  VideoFitTargets tg;
+  tg.vis.assign(pts.size(), 1.0);
+  tg.world = exact_world(obj, b, cam, truth.data(), nullptr, 0);
+  std::vector<float> rest_v(size_t(b.num_verts) * 3), rest_j(size_t(kNumJoints) * 3);
+  Lbs<float>(b).forward(SmplxParams{}, rest_v.data(), rest_j.data(), nullptr);
+  std::vector<float> q(kVideoFitFrameParams, 0.0f);
+  ASSERT_TRUE(init_pose_from_world(b, pts, tg, rest_j, cam.R, 0.5, q.data()));
+  const Mat3<double> R0 = rodrigues(Vec3d(q[0], q[1], q[2])), Rt = rodrigues(orient);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(R0(r, c), Rt(r, c), 1e-5);
+  const std::vector<double> qd(q.begin(), q.end());
+  const std::vector<double> got = exact_world(obj, b, cam, qd.data(), nullptr, 0);
+  for (const VideoFitBone& bone : video_fit_bones(pts)) {
+    auto dir = [&](const std::vector<double>& w) {
+      const Vec3d d = Vec3d::load(&w[size_t(3 * bone.b)]) - Vec3d::load(&w[size_t(3 * bone.a)]);
+      return d / norm(d);
+    };
+    EXPECT_LT(norm(dir(got) - dir(tg.world)), 1e-5) << pts[size_t(bone.a)].name << " -> " << pts[size_t(bone.b)].name;
+  }
+  // Without world points, or with a torso point unseen: nothing set (the 2D search runs).
+  std::vector<float> untouched(kVideoFitFrameParams, 0.5f);
+  VideoFitTargets none = tg;
+  none.world.clear();
+  EXPECT_FALSE(init_pose_from_world(b, pts, none, rest_j, cam.R, 0.5, untouched.data()));
+  none = tg;
+  none.vis[0] = 0.2;  // the left shoulder
+  EXPECT_FALSE(init_pose_from_world(b, pts, none, rest_j, cam.R, 0.5, untouched.data()));
+  for (float x : untouched) EXPECT_EQ(x, 0.5f);
 }
 
 TEST(VideoFitPoints, ProceduralBodyPointsSitWhereTheirNamesSay) {
@@ -375,6 +522,9 @@ TEST(VideoFit, SyntheticKeypointsRoundTripThroughTheJsonContract) {
     EXPECT_NEAR(r.body[i].x, k.body[i].x, 1e-4);
     EXPECT_NEAR(r.body[i].y, k.body[i].y, 1e-4);
   }
+  ASSERT_EQ(r.body_world.size(), k.body_world.size());  // the fixture's world points, 33
+  for (size_t i = 0; i < k.body_world.size(); ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.body_world[i][size_t(c)], k.body_world[i][size_t(c)], 1e-5);
   EXPECT_EQ(r.frame, "a.png");
 }
 
