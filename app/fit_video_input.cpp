@@ -12,6 +12,7 @@
 #include "app/subprocess.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "io/image.h"
 
 namespace haha {
@@ -187,7 +188,9 @@ InputFrames prepare_input_frames(const std::string& input, const std::string& wo
         last_said = frame;
       }
     }
-    if (pclose(p) != 0) {
+    const int status = pclose(p);  // ffmpeg got the terminal's Ctrl-C itself
+    check_interrupted();
+    if (status != 0) {
       std::string text;
       try {
         text = read_text_file(log);
@@ -231,6 +234,7 @@ InputFrames prepare_input_frames(const std::string& input, const std::string& wo
       f.source_index.push_back(sel[k]);
       f.names.push_back(src.filename().string());
       f.paths.push_back(frame_path(k));
+      check_interrupted();
       if (progress && sel.size() >= 10 && (k + 1) % (sel.size() / 10) == 0)
         std::printf("  frames: %zu / %zu copied\n", k + 1, sel.size());
     }

@@ -14,6 +14,7 @@
 #include "body/lbs.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "data/contact_sheet.h"
 #include "data/dataset.h"
 #include "data/stage_dir.h"
@@ -115,6 +116,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
                     (work / "keypoints.log").string());
   std::vector<VideoFitInputFrame> frames(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
+    check_interrupted();
     const std::string stem = fs::path(in.paths[size_t(i)]).stem().string();
     const std::string json = (kp_dir / "keypoints" / (stem + ".json")).string();
     if (!fs::is_regular_file(json, ec)) fail(json, "missing: the keypoint tool wrote no file for " + in.paths[size_t(i)]);
@@ -174,6 +176,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     DatasetWriter writer(stage.string(), in.width, in.height, s.fps, "neutral", source);
     writer.set_premultiplied(0);  // camera frames: colour is not multiplied by the mask
     for (size_t k = 0; k < r.kept.size(); ++k) {
+      check_interrupted();
       const int i = r.kept[k];
       FitVideoFrameRow& row = s.frames[size_t(i)];
       const VideoFitInputFrame& f = frames[size_t(i)];
@@ -213,6 +216,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   Lbs<float> lbs(body);
   std::vector<float> verts, joints(size_t(kNumJoints) * 3);
   for (int i : sheet_frames(s.frames, opt.sheet_tiles)) {
+    check_interrupted();
     const FitVideoFrameRow& row = s.frames[size_t(i)];
     verts.clear();
     if (!row.dropped) {
@@ -234,6 +238,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
 
   fs::rename(work, stage / "work", ec);
   if (ec) fail((stage / "work").string(), "cannot move the work folder: " + ec.message());
+  check_interrupted();  // the last chance: after this the dataset is in place
   move_dir_into_place(stage.string(), out);
   stage_guard.release();
   say("done: " + out + " (train with: haha train --data " + out + ")");

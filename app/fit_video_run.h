@@ -16,7 +16,8 @@
 //   work/keypoints/keypoints/*.json, work/keypoints/masks/*.png   the keypoint tool's output
 //   work/keypoints.log, work/ffmpeg.log                the tool's and ffmpeg's stderr
 // Everything is assembled beside OUT (OUT.fit-<pid>, OUT.fit-work-<pid>) and moved into
-// place at the end: a failed run leaves OUT as it was (or absent). An existing OUT is
+// place at the end: a failed or interrupted run (core/interrupt.h: the loops check the flag
+// that SIGINT / SIGTERM set) leaves OUT as it was (or absent). An existing OUT is
 // replaced only when it is empty or holds a dataset.json.
 #pragma once
 

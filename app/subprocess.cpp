@@ -1,11 +1,20 @@
 #include "app/subprocess.h"
 
+#include <signal.h>
+#include <spawn.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
 
 #include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
+
+#include "core/interrupt.h"
+
+extern char** environ;
 
 namespace haha {
 
@@ -28,8 +37,25 @@ int run_capture(const std::string& cmd, std::string& output) {
 int run_command(const std::string& cmd) {
   std::fflush(stdout);  // our progress lines stay before the child's
   std::fflush(stderr);
-  const int st = std::system(cmd.c_str());
-  if (st == -1 || !WIFEXITED(st)) return -1;
+  // sh -c, as std::system, but waited for here: std::system ignores SIGINT while it waits,
+  // and the interrupt flag (core/interrupt.h) must be seen.
+  pid_t pid = 0;
+  const char* argv[] = {"sh", "-c", cmd.c_str(), nullptr};
+  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ) != 0) return -1;
+  int st = 0;
+  bool passed_on = false;
+  for (;;) {
+    const pid_t r = waitpid(pid, &st, WNOHANG);
+    if (r == pid) break;
+    if (r < 0 && errno != EINTR) return -1;
+    if (interrupted() && !passed_on) {  // e.g. a SIGTERM sent to haha alone: the child stops too
+      kill(pid, SIGTERM);
+      passed_on = true;
+    }
+    usleep(20000);
+  }
+  check_interrupted();
+  if (!WIFEXITED(st)) return -1;
   return WEXITSTATUS(st);
 }
 

