@@ -47,17 +47,19 @@ constexpr double kVisible = 0.5;  // visibility from which a point counts as see
 }  // namespace
 
 void summarize_fit(FitVideoSummary& s) {
-  double rp = 0, iou = 0, pa = 0;
-  int nrp = 0, niou = 0, npa = 0;
+  double rp = 0, iou = 0, pa = 0, rot = 0;
+  int nrp = 0, niou = 0, npa = 0, nrot = 0;
   for (const FitVideoFrameRow& r : s.frames) {
     if (r.dropped) continue;
     if (std::isfinite(r.reprojection_px)) rp += r.reprojection_px, ++nrp;
     if (std::isfinite(r.silhouette_iou)) iou += r.silhouette_iou, ++niou;
     if (std::isfinite(r.joint_error_mm)) pa += r.joint_error_mm, ++npa;
+    if (std::isfinite(r.orient_error_deg)) rot += r.orient_error_deg, ++nrot;
   }
   s.mean_reprojection_px = nrp ? rp / nrp : NAN;
   s.mean_silhouette_iou = niou ? iou / niou : NAN;
   s.mean_joint_error_mm = npa ? pa / npa : NAN;
+  s.mean_orient_error_deg = nrot ? rot / nrot : NAN;
 }
 
 std::string fit_report_json(const FitVideoSummary& s) {
@@ -81,6 +83,7 @@ std::string fit_report_json(const FitVideoSummary& s) {
   if (!s.truth.empty()) {
     j["truth"] = s.truth;
     j["mean_joint_error_mm"] = number_or_null(s.mean_joint_error_mm);  // PA-MPJPE, pelvis + 21 body joints
+    j["mean_orient_error_deg"] = number_or_null(s.mean_orient_error_deg);
   }
   ojson frames = ojson::array();
   for (const FitVideoFrameRow& r : s.frames) {
@@ -93,7 +96,10 @@ std::string fit_report_json(const FitVideoSummary& s) {
     if (!r.dropped) f["split"] = split_name(r.split);
     f["reprojection_px"] = number_or_null(r.reprojection_px);
     f["silhouette_iou"] = number_or_null(r.silhouette_iou);
-    if (!s.truth.empty()) f["joint_error_mm"] = number_or_null(r.joint_error_mm);
+    if (!s.truth.empty()) {
+      f["joint_error_mm"] = number_or_null(r.joint_error_mm);
+      f["orient_error_deg"] = number_or_null(r.orient_error_deg);
+    }
     frames.push_back(std::move(f));
   }
   j["frames"] = std::move(frames);
@@ -113,15 +119,17 @@ std::string fit_report_table(const FitVideoSummary& s) {
   const bool truth = !s.truth.empty();  // a column of the joint error against --truth
   if (truth) {
     out.insert(out.size() - 2, "; mean body-joint error after Procrustes " + fixed(s.mean_joint_error_mm, 1) +
-                                   " mm (PA-MPJPE against " + s.truth + ")");
+                                   " mm (PA-MPJPE), orientation " + fixed(s.mean_orient_error_deg, 1) +
+                                   " deg, against " + s.truth);
   }
   std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), "frame", "source", "kept",
-                "dataset", "reproj", "IoU", truth ? "  PA mm" : "", "reason");
+                "dataset", "reproj", "IoU", truth ? "  PA mm  rot deg" : "", "reason");
   out += line;
   for (const FitVideoFrameRow& r : s.frames) {
     const std::string kept = r.dropped ? "dropped" : split_name(r.split);
-    char pa[32] = "";
-    if (truth) std::snprintf(pa, sizeof pa, "  %5s", fixed(r.joint_error_mm, 1).c_str());
+    char pa[48] = "";
+    if (truth)
+      std::snprintf(pa, sizeof pa, "  %5s  %7s", fixed(r.joint_error_mm, 1).c_str(), fixed(r.orient_error_deg, 1).c_str());
     std::snprintf(line, sizeof line, "%-*s  %6d  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), r.name.c_str(), r.source_index,
                   kept.c_str(), r.dropped ? "-" : std::to_string(r.dataset_frame).c_str(),
                   fixed(r.reprojection_px, 2).c_str(), fixed(r.silhouette_iou, 3).c_str(), pa, r.reason.c_str());

@@ -24,6 +24,7 @@ struct FitVideoFrameRow {
   double reprojection_px = 0; // NaN: not measured
   double silhouette_iou = 0;  // NaN: not measured
   double joint_error_mm = NAN;  // PA-MPJPE against --truth (app/fit_video_truth.h); NaN: not measured
+  double orient_error_deg = NAN;  // body orientation as the camera sees it, against --truth; NaN: not measured
   int dataset_frame = -1;     // row in the written dataset (-1: dropped)
   Split split = Split::train;
 };
@@ -39,6 +40,7 @@ struct FitVideoSummary {
   double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
   std::string truth;               // --truth DIR ("" = none): the joint error is reported
   double mean_joint_error_mm = NAN;  // over kept frames with a value (NaN: none)
+  double mean_orient_error_deg = NAN;
 };
 
 // Means over kept frames of the finite values; fills summary.mean_*.

@@ -202,7 +202,9 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     s.truth = opt.truth;
     for (size_t k = 0; k < r.kept.size(); ++k) {
       FitVideoFrameRow& row = s.frames[size_t(r.kept[k])];
-      row.joint_error_mm = body_joint_pa_error_mm(body, r.params[k], truth.body, truth.params[size_t(row.source_index)]);
+      const size_t t = size_t(row.source_index);
+      row.joint_error_mm = body_joint_pa_error_mm(body, r.params[k], truth.body, truth.params[t]);
+      row.orient_error_deg = body_orient_error_deg(r.camera, r.params[k], truth.cameras[t], truth.params[t]);
     }
   }
   summarize_fit(s);

@@ -1,8 +1,10 @@
 #include "app/fit_video_truth.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "body/lbs.h"
+#include "body/rotation.h"
 #include "core/error.h"
 #include "core/procrustes.h"
 #include "data/dataset.h"
@@ -25,6 +27,7 @@ FitVideoTruth read_fit_video_truth(const std::string& dir, const BodyModel& fall
   t.dir = dir;
   const Dataset ds = read_dataset(dir, LoadPixels::headers);
   if (ds.frames.empty()) fail(dir, "the dataset holds no frames, so no fits to compare with");
+  for (const DatasetFrame& f : ds.frames) t.cameras.push_back(f.camera);
   if (!ds.params_true.empty()) {
     t.params = ds.params_true;
   } else {
@@ -52,6 +55,19 @@ double body_joint_pa_error_mm(const BodyModel& fit_body, const SmplxParams& fit,
     return out;
   };
   return 1000 * procrustes_error(joints(truth_body, truth), joints(fit_body, fit));
+}
+
+double body_orient_error_deg(const Camera& fit_camera, const SmplxParams& fit, const Camera& truth_camera,
+                             const SmplxParams& truth) {
+  auto sq = [](double x) { return x * x; };
+  auto seen = [](const Camera& c, const SmplxParams& p) {
+    return c.cast<double>().R * rodrigues(Vec3d(p.pose[0], p.pose[1], p.pose[2]));
+  };
+  const Mat3<double> d = seen(fit_camera, fit) * transpose(seen(truth_camera, truth));
+  // atan2 of sin and cos (not acos alone): exact near 0 degrees, where acos loses digits.
+  const double s = 0.5 * std::sqrt(sq(d.a[2][1] - d.a[1][2]) + sq(d.a[0][2] - d.a[2][0]) + sq(d.a[1][0] - d.a[0][1]));
+  const double c = (d.a[0][0] + d.a[1][1] + d.a[2][2] - 1) / 2;
+  return std::atan2(s, c) * 180 / 3.14159265358979323846;
 }
 
 }  // namespace haha

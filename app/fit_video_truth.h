@@ -3,7 +3,9 @@
 // scripts/make-test-video.sh, whose video.mp4 is its frames 0..N-1), and each kept frame's
 // fit is compared with the true fit of the frame it was decoded as (its source_index): the
 // body-joint error (pelvis + 21 body joints) after a per-frame similarity Procrustes
-// alignment (PA-MPJPE, core/procrustes.h), in mm.
+// alignment (PA-MPJPE, core/procrustes.h), in mm, and the error of the body's orientation as
+// its camera sees it, in degrees: Procrustes hides it, and it is what makes a turning
+// subject's views disagree when an avatar is trained on the fits.
 #pragma once
 
 #include <string>
@@ -11,12 +13,14 @@
 
 #include "body/body_model.h"
 #include "body/smplx_params.h"
+#include "render/camera.h"
 
 namespace haha {
 
 struct FitVideoTruth {
   std::string dir;
   std::vector<SmplxParams> params;  // per DIR frame, in order: its true fits (smplx_true) when it has them, else its fits
+  std::vector<Camera> cameras;      // per DIR frame
   BodyModel body;                   // DIR/body_model.npz; else the body given to read_fit_video_truth
   bool own_body = false;            // whether body came from DIR
 };
@@ -32,5 +36,10 @@ void check_truth_frames(const FitVideoTruth& t, int decoded_frames);
 // `truth` posed with `truth_body`.
 double body_joint_pa_error_mm(const BodyModel& fit_body, const SmplxParams& fit, const BodyModel& truth_body,
                               const SmplxParams& truth);
+
+// Angle (degrees) between the body's orientation in its camera's frame, R_cam R(global
+// orient), of the fit and of the truth: 0 when the fit sees the body turned as the truth does.
+double body_orient_error_deg(const Camera& fit_camera, const SmplxParams& fit, const Camera& truth_camera,
+                             const SmplxParams& truth);
 
 }  // namespace haha

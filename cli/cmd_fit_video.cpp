@@ -48,7 +48,9 @@ HAHA_COMMAND(fit_video) {
                                                 const haha::VideoFitOptions& vo) { return haha::fit_video(body, frames, vo); });
     std::printf("%s: %d frames kept (%d train, %d test), %d dropped; keypoint error %.2f px, silhouette IoU %.3f",
                 s.out.c_str(), s.kept, s.train, s.test, s.dropped, s.mean_reprojection_px, s.mean_silhouette_iou);
-    if (!s.truth.empty()) std::printf("; body-joint error after Procrustes %.1f mm (PA-MPJPE)", s.mean_joint_error_mm);
+    if (!s.truth.empty())
+      std::printf("; body-joint error after Procrustes %.1f mm (PA-MPJPE), orientation %.1f deg", s.mean_joint_error_mm,
+                  s.mean_orient_error_deg);
     std::printf("\n");
   });
 }

@@ -363,18 +363,25 @@ TEST_F(FitVideoRunTest, ReportWithTruthAddsTheJointErrorColumnAndMean) {
   EXPECT_EQ(fit_report_table(s).find("PA"), std::string::npos);  // no --truth: no column
   s.truth = "synth";
   s.frames[0].joint_error_mm = 31.25;
+  s.frames[0].orient_error_deg = 7.5;
   summarize_fit(s);
   EXPECT_DOUBLE_EQ(s.mean_joint_error_mm, 31.25);
+  EXPECT_DOUBLE_EQ(s.mean_orient_error_deg, 7.5);
   const auto j = nlohmann::json::parse(fit_report_json(s));
   EXPECT_EQ(j["truth"], "synth");
   EXPECT_DOUBLE_EQ(j["mean_joint_error_mm"].get<double>(), 31.25);
   EXPECT_DOUBLE_EQ(j["frames"][0]["joint_error_mm"].get<double>(), 31.25);
   EXPECT_TRUE(j["frames"][1]["joint_error_mm"].is_null());
+  EXPECT_DOUBLE_EQ(j["mean_orient_error_deg"].get<double>(), 7.5);
+  EXPECT_DOUBLE_EQ(j["frames"][0]["orient_error_deg"].get<double>(), 7.5);
+  EXPECT_TRUE(j["frames"][1]["orient_error_deg"].is_null());
   const std::string table = fit_report_table(s);
-  EXPECT_NE(table.find("mean body-joint error after Procrustes 31.2 mm (PA-MPJPE against synth)\n\n"),
+  EXPECT_NE(table.find("mean body-joint error after Procrustes 31.2 mm (PA-MPJPE), orientation 7.5 deg, "
+                       "against synth\n\n"),
             std::string::npos) << table;
-  EXPECT_NE(table.find("\nframe 0       0  train          0    2.50   0.800   31.2\n"), std::string::npos) << table;
-  EXPECT_NE(table.find("\nframe 1       1  dropped        -       -       -      -  nobody in the frame\n"),
+  EXPECT_NE(table.find("\nframe 0       0  train          0    2.50   0.800   31.2      7.5\n"), std::string::npos)
+      << table;
+  EXPECT_NE(table.find("\nframe 1       1  dropped        -       -       -      -        -  nobody in the frame\n"),
             std::string::npos) << table;
 }
 

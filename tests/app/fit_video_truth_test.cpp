@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "body/procedural_body.h"
+#include "body/rotation.h"
 #include "data/dataset.h"
 #include "io/body_model_io.h"
 #include "support/data_test_util.h"
@@ -42,6 +43,28 @@ TEST(FitVideoTruth, JointErrorIsZeroForTheTruthWhereverItIsPlacedAndGrowsWithABe
   EXPECT_LT(bent, 100.0);
 }
 
+// The orientation error is that of the body as each camera sees it: a camera turned with the
+// body sees no error; the fit turned 10 degrees about the vertical under the same camera, 10.
+TEST(FitVideoTruth, OrientErrorIsTheBodysTurnAsItsCameraSeesIt) {
+  const SmplxParams t = pose(-0.2);
+  Camera cam;
+  EXPECT_LT(body_orient_error_deg(cam, t, cam, t), 1e-4);
+  SmplxParams turned = t;
+  const Mat3<double> yaw = rodrigues(Vec3d(0, 10 * 3.14159265358979323846 / 180, 0));
+  const Vec3d w = matrix_to_axis_angle(yaw * rodrigues(Vec3d(t.pose[0], t.pose[1], t.pose[2])));
+  for (int c = 0; c < 3; ++c) turned.pose[size_t(c)] = float(w[c]);
+  EXPECT_NEAR(body_orient_error_deg(cam, turned, cam, t), 10.0, 1e-3);
+  Camera other = cam;  // a camera turned the other way sees the turned body as the truth
+  const Mat3<double> back = transpose(yaw);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) other.R.a[i][j] = float(back.a[i][j]);
+  EXPECT_LT(body_orient_error_deg(other, turned, cam, t), 1e-3);
+  // The body pose and the place do not count.
+  SmplxParams bent = pose(-1.4);
+  bent.transl = {1.0f, -2.0f, 4.0f};
+  EXPECT_LT(body_orient_error_deg(cam, bent, cam, t), 1e-4);
+}
+
 class FitVideoTruthDir : public testutil::TempDirTest {
  protected:
   // A dataset of n tiny frames with fits pose(0.1 i) and true fits pose(-0.1 i).
@@ -63,6 +86,8 @@ TEST_F(FitVideoTruthDir, ReadsTrueFitsAndTheDatasetsBody) {
   write("a", 3, true);
   FitVideoTruth t = read_fit_video_truth(path("a"), body());
   ASSERT_EQ(t.params.size(), 3u);
+  EXPECT_EQ(t.cameras.size(), 3u);
+  EXPECT_EQ(t.cameras[2].fx, 8);
   EXPECT_EQ(t.params[2].pose, pose(-0.2).pose);  // params_true, not the fits
   EXPECT_FALSE(t.own_body);
   EXPECT_EQ(t.body.num_verts, body().num_verts);
