@@ -56,6 +56,8 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (!(o.fps >= 0) || !std::isfinite(o.fps) || o.fps > 1000) fail("--fps", "must be in [0, 1000] (0: every frame)");
   if (!(o.focal_px >= 0) || !std::isfinite(o.focal_px) || o.focal_px > 1e6) fail("--focal", "must be a positive number of pixels");
   if (!(o.fov_deg > 1 && o.fov_deg < 179)) fail("--fov", "must be in (1, 179) degrees");
+  if (!(o.robust_smoothness >= 0 && o.robust_smoothness <= 10))
+    fail("--robust-smoothness", "must be in [0, 10] radians (0: quadratic smoothness)");
   if (o.test_every < 0 || o.test_every == 1) fail("--test-every", "must be 0 (no test frames) or >= 2");
   if (o.test_from < 0) fail("--test-from", "must be a frame number >= 1 (0: no held-out end)");
   if (o.mask != "pose" && o.mask != "selfie") fail("--mask", "'" + o.mask + "' is neither pose nor selfie");
@@ -143,6 +145,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   VideoFitOptions vo;
   vo.focal_px = opt.focal_px;
   vo.fov_deg = opt.fov_deg;
+  vo.weights.smooth_sigma = opt.robust_smoothness;
   vo.progress = opt.progress;
   vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
   const VideoFitResult r = fit(frames, vo);

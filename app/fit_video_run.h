@@ -38,6 +38,7 @@ struct FitVideoOptions {
                               // (default 30); 0: every decoded frame at the video's own rate
   double focal_px = 0;        // VideoFitOptions::focal_px
   double fov_deg = 55;        // VideoFitOptions::fov_deg (used when focal_px is 0)
+  double robust_smoothness = 0;  // VideoFitWeights::smooth_sigma (rad; 0: quadratic)
   std::string frames;         // --frames A:B:S (first, last exclusive, step) after decoding; "" = all
   int test_every = 0;         // every Nth kept frame goes to the "test" split; 0: none
   int test_from = 0;          // > 0: kept frames decoded at or after this frame number go to

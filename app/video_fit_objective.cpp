@@ -202,12 +202,20 @@ T VideoFitObjective<T>::evaluate(const std::vector<VideoFitTargets>& targets, co
       const T* qp = q - kVideoFitFrameParams;
       T* gp = grad ? gq - kVideoFitFrameParams : nullptr;
       for (int k = 0; k < kVideoFitFrameParams; ++k) {
+        const bool robust = k >= 3 && k < kVideoFitPoseValues && w_.smooth_sigma > 0;
+        const T s2 = T(w_.smooth_sigma * w_.smooth_sigma);
         const T w = T(time_scale * (k < kVideoFitPoseValues ? w_.smooth_pose : w_.smooth_transl));
         const T d = q[k] - qp[k];
-        t.smooth += double(w * d * d) / N;
+        T e = w * d * d, g = T(2) * w * d;  // the value and its derivative by d
+        if (robust) {  // w s2 v^2 / (s2 + v^2) of v^2 = time_scale d^2 (the change per dt_ref)
+          const T v2 = T(time_scale) * d * d;
+          e = T(w_.smooth_pose) * s2 * v2 / (s2 + v2);
+          g = T(w_.smooth_pose) * s2 * s2 / ((s2 + v2) * (s2 + v2)) * T(2 * time_scale) * d;
+        }
+        t.smooth += double(e) / N;
         if (grad) {
-          gq[k] += invN * T(2) * w * d;
-          gp[k] -= invN * T(2) * w * d;
+          gq[k] += invN * g;
+          gp[k] -= invN * g;
         }
       }
     }

@@ -51,6 +51,11 @@ struct VideoFitWeights {
   double angle_limit = 1e-1;   // w_limit (rad^-2)
   double smooth_pose = 1e-2;   // w_sp (rad^-2)
   double smooth_transl = 1e-2; // w_st (m^-2)
+  // > 0: the body joints' smoothness is robust (Geman-McClure on the change per dt_ref,
+  // sigma in radians), so a jump between stills or a fast move is not pulled towards its
+  // neighbours; 0: quadratic. The global orient stays quadratic (a turn is fast, and robust
+  // there lost the turn's consistency: docs/fit-video.md).
+  double smooth_sigma = 0;
   double betas = 1e-4;         // w_betas
   double behind = 1.0;         // w_behind (m^-2)
   double world = 2e-3;         // w_world (0: off); chosen by measurement, docs/fit-video.md

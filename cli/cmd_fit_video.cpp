@@ -28,6 +28,9 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--frames", a->o.frames, "A:B:S: frames A (first) to B (exclusive; empty = end) every S, after decoding");
   sub->add_option("--test-every", a->o.test_every, "every Nth kept frame goes to the test split (0: none)")
       ->capture_default_str();
+  sub->add_option("--robust-smoothness", a->o.robust_smoothness,
+                  "sigma (rad) of a robust smoothness of the body joints, for stills or fast moves (0: quadratic)")
+      ->capture_default_str();
   sub->add_option("--test-from", a->o.test_from,
                   "kept frames decoded at or after frame K (before --frames) go to the test split (0: none)")
       ->capture_default_str();

@@ -302,6 +302,8 @@ TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
   bad("--fov", [](FitVideoOptions& o) { o.fov_deg = 180; });
   bad("--test-every", [](FitVideoOptions& o) { o.test_every = 1; });
   bad("--test-from", [](FitVideoOptions& o) { o.test_from = -3; });
+  bad("--robust-smoothness", [](FitVideoOptions& o) { o.robust_smoothness = -0.1; });
+  bad("--robust-smoothness", [](FitVideoOptions& o) { o.robust_smoothness = NAN; });
   bad("--mask", [](FitVideoOptions& o) { o.mask = "rvm"; });
   bad("--frames", [](FitVideoOptions& o) { o.frames = "4:2"; });
   bad("--out", [](FitVideoOptions& o) { o.out = ""; });

@@ -180,6 +180,44 @@ TEST(VideoFitObjective, GradientMatchesFiniteDifferencesInDouble) {
   EXPECT_GT(wt.world, 0);
   EXPECT_EQ(wt.keypoints, 0);
   EXPECT_LT(gradient_error(wobj, t, p, {}), 1e-5);
+  // The robust smoothness (frames ~0.3 rad apart per value: past both knees).
+  VideoFitWeights robust = strong_weights();
+  robust.smooth_pose = 1, robust.smooth_sigma = 0.15;
+  const VideoFitObjective<double> robj(small_body(), small_points(), rotated_camera(), nb, robust);
+  VideoFitTerms rt;
+  robj.evaluate(t, p.data(), nullptr, {}, &rt);
+  EXPECT_GT(rt.smooth, 0);
+  EXPECT_LT(gradient_error(robj, t, p, {}), 1e-5);
+}
+
+// Robust smoothness: a small change costs what the quadratic costs, a jump (a cut between
+// stills, a fast move) at most w sigma^2 per value, so it is not pulled towards its neighbour.
+TEST(VideoFitObjective, RobustSmoothnessCapsTheCostOfAJump) {
+  VideoFitWeights w;
+  w.keypoints = 0, w.pose_prior = 0, w.angle_limit = 0, w.betas = 0, w.behind = 0, w.world = 0;
+  w.smooth_transl = 0;
+  std::mt19937 rng(29);
+  auto smooth = [&](double sigma, double change, int k) {
+    VideoFitWeights ww = w;
+    ww.smooth_sigma = sigma;
+    const VideoFitObjective<double> obj(small_body(), small_points(), rotated_camera(), 0, ww);
+    std::vector<double> p = random_params(2, 0, rng);
+    for (int j = 0; j < kVideoFitFrameParams; ++j) p[size_t(kVideoFitFrameParams + j)] = p[size_t(j)];
+    p[size_t(kVideoFitFrameParams + k)] += change;
+    std::vector<VideoFitTargets> t = random_targets(obj, p, 2, rng);
+    for (VideoFitTargets& x : t) x.dt = kVideoFitSmoothInterval;
+    VideoFitTerms terms;
+    obj.evaluate(t, p.data(), nullptr, {}, &terms);
+    return terms.smooth * 2;  // the objective divides by the frame count
+  };
+  const double wsp = w.smooth_pose;
+  const double s = 0.15;
+  EXPECT_NEAR(smooth(0, 1.0, 40), wsp * 1.0, 1e-12);                    // quadratic
+  EXPECT_NEAR(smooth(s, 1e-3, 40), wsp * 1e-6, 1e-4 * wsp * 1e-6);       // small: nearly the same
+  const double jump = smooth(s, 1.0, 40);                                // a body joint
+  EXPECT_NEAR(jump, wsp * s * s / (s * s + 1.0), 1e-12);
+  EXPECT_LT(jump, wsp * s * s);
+  EXPECT_NEAR(smooth(s, 1.0, 1), wsp * 1.0, 1e-12);  // the global orient stays quadratic
 }
 
 TEST(VideoFitObjective, PointBehindTheCameraIsFiniteAndPulledForward) {
