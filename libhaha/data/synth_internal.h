@@ -82,6 +82,9 @@ std::vector<std::array<double, kGroups>> vertex_groups(const BodyModel& body);
 // Skinning weights: add_weight entries, then end_vertex normalises them to sum 1.
 void add_weight(SynthMesh& m, int joint, double w);
 void end_vertex(SynthMesh& m);
+// Faces of an R x (C + 1) vertex grid (row i, column k at i (C + 1) + k): (i,k) -> (i+1,k)
+// -> (i,k+1) and its partner per cell, so rings going down with phi growing face outward.
+void add_grid_faces(SynthMesh& m, int R, int C);
 // Candidates lying inside another connected component of (verts, faces).
 std::vector<uint8_t> inside_other_part(const std::vector<float>& verts, const std::vector<int32_t>& faces,
                                        const std::vector<int>& candidates);

@@ -465,6 +465,15 @@ void add_weight(SynthMesh& m, int joint, double w) {
   m.w_joint.push_back(joint);
   m.w_value.push_back(float(w));
 }
+void add_grid_faces(SynthMesh& m, int R, int C) {
+  auto vid = [&](int i, int k) { return i * (C + 1) + k; };
+  for (int i = 0; i + 1 < R; ++i)
+    for (int k = 0; k < C; ++k) {
+      const int a = vid(i, k), b = vid(i + 1, k), c = vid(i, k + 1), d = vid(i + 1, k + 1);
+      m.faces.insert(m.faces.end(), {a, b, c, c, b, d});
+    }
+}
+
 void end_vertex(SynthMesh& m) {
   // Normalise this vertex's weights (the entries since the previous w_start).
   const int b = m.w_start.back(), e = int(m.w_joint.size());
@@ -824,12 +833,7 @@ SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<
   }
   // Rings go down and phi grows: (i,k) -> (i+1,k) -> (i,k+1) has normal
   // (-Y) x d/dphi (sin phi, 0, cos phi) = (sin phi, 0, cos phi), i.e. outward.
-  auto vid = [&](int i, int k) { return i * (C + 1) + k; };
-  for (int i = 0; i + 1 < R; ++i)
-    for (int k = 0; k < C; ++k) {
-      const int a = vid(i, k), b = vid(i + 1, k), c = vid(i, k + 1), d = vid(i + 1, k + 1);
-      m.faces.insert(m.faces.end(), {a, b, c, c, b, d});
-    }
+  add_grid_faces(m, R, C);
   m.ft = m.faces;
   return m;
 }

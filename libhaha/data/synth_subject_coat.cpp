@@ -211,12 +211,7 @@ SynthMesh make_long_hair(const Anatomy& A, const std::vector<float>& verts, cons
       end_vertex(m);
     }
   // Columns go with phi like the skirt's: (i,k) -> (i+1,k) -> (i,k+1) faces outward.
-  auto vid = [&](int i, int k) { return i * (C + 1) + k; };
-  for (int i = 0; i + 1 < R; ++i)
-    for (int k = 0; k < C; ++k) {
-      const int a = vid(i, k), b = vid(i + 1, k), c = vid(i, k + 1), d = vid(i + 1, k + 1);
-      m.faces.insert(m.faces.end(), {a, b, c, c, b, d});
-    }
+  add_grid_faces(m, R, C);
   m.ft = m.faces;
   return m;
 }
