@@ -123,8 +123,11 @@ void shape_rest(const BodyModel& body, SynthSubject& s);
 void paint_body_texture(const BodyModel& body, SynthSubject& s, const std::vector<V3>& normals,
                         const std::vector<std::array<double, kGroups>>& groups, int S,
                         const std::function<V3(V3, V3, const double*)>& shade);
-// Garment atlas (S x S/2) painted from shade(u, v), v up.
-void paint_garment_texture(Image& tex, int S, const std::function<V3(double, double)>& shade);
+// Garment atlas (S x S/2) of the two charts: upper(t, u) above (t from 0 at kSkirtV0 to 1
+// at kSkirtV1: skirt / coat tails), lower(s, u) below (s from 0 at kPonytailV0 to 1 at
+// kPonytailV1: ponytail / long hair); u in [0, 1) runs around.
+void paint_garment_texture(Image& tex, int S, const std::function<V3(double, double)>& upper,
+                           const std::function<V3(double, double)>& lower);
 void paint_atlas(Image& tex, const float* vt, const int32_t* ft, const std::vector<int32_t>& faces_to_paint, int ss,
                  const std::function<V3(int, double, double, double)>& shade);
 

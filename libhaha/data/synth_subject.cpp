@@ -866,7 +866,12 @@ void paint_body_texture(const BodyModel& body, SynthSubject& s, const std::vecto
   });
 }
 
-void paint_garment_texture(Image& tex, int S, const std::function<V3(double, double)>& shade) {
+void paint_garment_texture(Image& tex, int S, const std::function<V3(double, double)>& upper,
+                           const std::function<V3(double, double)>& lower) {
+  auto shade = [&](double u, double v) {
+    if (v > 0.5 * (kSkirtV1 + kPonytailV0)) return upper(clamp((v - kSkirtV0) / (kSkirtV1 - kSkirtV0), 0.0, 1.0), u);
+    return lower(clamp((v - kPonytailV0) / (kPonytailV1 - kPonytailV0), 0.0, 1.0), u);
+  };
   // Charts are analytic rectangles, so every texel is shaded directly (2 x 2 samples).
   const int GW = S, GH = std::max(8, S / 2);
   tex = Image(GW, GH, 3);
@@ -921,14 +926,10 @@ SynthSubject make_synth_subject(const BodyModel& body, const SynthSubjectOptions
   paint_body_texture(body, s, normals, groups, opt.texture_size,
                      [&](V3 p, V3 n, const double* g) { return shade_body(A, P, p, n, g); });
   // Garment atlas: skirt chart in the upper part, ponytail chart in the lower part.
-  paint_garment_texture(s.garment_texture, opt.texture_size, [&](double u, double v) {
-    if (v > 0.5 * (kSkirtV1 + kPonytailV0)) {
-      const double t = clamp((v - kSkirtV0) / (kSkirtV1 - kSkirtV0), 0.0, 1.0);
-      return shade_skirt(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length);
-    }
-    const double sp = clamp((v - kPonytailV0) / (kPonytailV1 - kPonytailV0), 0.0, 1.0);
-    return shade_ponytail(P, sp, 2 * kPi * u);
-  });
+  paint_garment_texture(
+      s.garment_texture, opt.texture_size,
+      [&](double t, double u) { return shade_skirt(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length); },
+      [&](double sp, double u) { return shade_ponytail(P, sp, 2 * kPi * u); });
   return s;
 }
 

@@ -296,14 +296,10 @@ SynthSubject make_coat_subject(const BodyModel& body, const SynthSubjectOptions&
   paint_body_texture(body, s, normals, groups, opt.texture_size,
                      [&](V3 p, V3 n, const double* g) { return shade_coat_body(A, P, p, n, g); });
   // Garment atlas: coat tails in the upper part, long hair in the lower part.
-  paint_garment_texture(s.garment_texture, opt.texture_size, [&](double u, double v) {
-    if (v > 0.5 * (kSkirtV1 + kPonytailV0)) {
-      const double t = clamp((v - kSkirtV0) / (kSkirtV1 - kSkirtV0), 0.0, 1.0);
-      return shade_coat_tails(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length);
-    }
-    const double sp = clamp((v - kPonytailV0) / (kPonytailV1 - kPonytailV0), 0.0, 1.0);
-    return shade_long_hair(P, sp, u);
-  });
+  paint_garment_texture(
+      s.garment_texture, opt.texture_size,
+      [&](double t, double u) { return shade_coat_tails(P, t, kPi + 2 * kPi * u, sf.ref_radius, sf.length); },
+      [&](double sp, double u) { return shade_long_hair(P, sp, u); });
   return s;
 }
 

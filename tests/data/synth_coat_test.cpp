@@ -16,6 +16,7 @@
 #include "data/synth_internal.h"
 #include "data/synth_subject.h"
 #include "support/expect_error.h"
+#include "support/synth_mesh_checks.h"
 
 namespace haha {
 namespace {
@@ -101,28 +102,12 @@ TEST(SynthCoat, MeshesAreWellFormedAndSkinned) {
   for (const SynthMesh& m : s.meshes) {
     SCOPED_TRACE(m.name);
     ASSERT_GT(m.num_faces(), 100);
-    ASSERT_EQ(m.ft.size(), m.faces.size());
-    ASSERT_EQ(int(m.w_start.size()), m.num_verts() + 1);
     EXPECT_GT(m.gloss, 0.0f);
-    for (float x : m.rest) ASSERT_TRUE(std::isfinite(x));
-    for (float u : m.vt) ASSERT_TRUE(u >= 0 && u <= 1);
-    const int nuv = int(m.vt.size() / 2);
+    test::expect_synth_mesh_well_formed(m);
+    if (HasFatalFailure()) return;
     for (int f = 0; f < m.num_faces(); ++f) {
-      for (int k = 0; k < 3; ++k) {
-        ASSERT_TRUE(m.faces[3 * f + k] >= 0 && m.faces[3 * f + k] < m.num_verts());
-        ASSERT_TRUE(m.ft[3 * f + k] >= 0 && m.ft[3 * f + k] < nuv);
-      }
       const V3 a = at(m.rest, m.faces[3 * f]), b = at(m.rest, m.faces[3 * f + 1]), c = at(m.rest, m.faces[3 * f + 2]);
       ASSERT_GT(norm(cross(b - a, c - a)), 1e-10) << "face " << f;  // every face has an area
-    }
-    for (int v = 0; v < m.num_verts(); ++v) {
-      double sum = 0;
-      for (int k = m.w_start[v]; k < m.w_start[v + 1]; ++k) {
-        ASSERT_TRUE(m.w_joint[k] >= 0 && m.w_joint[k] < kNumJoints);
-        ASSERT_GE(m.w_value[k], 0.0f);
-        sum += m.w_value[k];
-      }
-      ASSERT_NEAR(sum, 1.0, 1e-5) << v;
     }
   }
   for (const Image* t : {&s.body_texture, &s.garment_texture}) {

@@ -27,6 +27,7 @@
 #include "io/image.h"
 #include "io/npy.h"
 #include "support/expect_error.h"
+#include "support/synth_mesh_checks.h"
 
 namespace haha {
 namespace {
@@ -184,24 +185,7 @@ TEST(SynthSubject, GarmentMeshesAreWellFormedAndSkinned) {
   for (const SynthMesh& m : s.meshes) {
     SCOPED_TRACE(m.name);
     ASSERT_GT(m.num_faces(), 20);
-    ASSERT_EQ(m.ft.size(), m.faces.size());
-    ASSERT_EQ(int(m.w_start.size()), m.num_verts() + 1);
-    const int nuv = int(m.vt.size() / 2);
-    for (size_t i = 0; i < m.faces.size(); ++i) {
-      ASSERT_TRUE(m.faces[i] >= 0 && m.faces[i] < m.num_verts());
-      ASSERT_TRUE(m.ft[i] >= 0 && m.ft[i] < nuv);
-    }
-    for (float u : m.vt) ASSERT_TRUE(u >= 0 && u <= 1);
-    for (int v = 0; v < m.num_verts(); ++v) {
-      double sum = 0;
-      for (int k = m.w_start[v]; k < m.w_start[v + 1]; ++k) {
-        ASSERT_TRUE(m.w_joint[k] >= 0 && m.w_joint[k] < kNumJoints);
-        ASSERT_GE(m.w_value[k], 0.0f);
-        sum += m.w_value[k];
-      }
-      ASSERT_NEAR(sum, 1.0, 1e-5) << v;
-    }
-    for (float x : m.rest) ASSERT_TRUE(std::isfinite(x));
+    test::expect_synth_mesh_well_formed(m);
   }
   // The skirt follows the thighs: its hem is skinned to both hips, its waist to the pelvis.
   const SynthMesh& sk = *by["skirt"];
