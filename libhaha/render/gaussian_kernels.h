@@ -237,8 +237,9 @@ HAHA_HD void project_gaussian_backward(const CameraT<T>& cam, const T* scale, T 
 
 // Rounded multiply / add / subtract that no compiler may fuse: nvcc contracts a * b + c
 // into one fma by default, and would be free to do so differently in the forward and the
-// backward kernel. The host compiler does not contract (x86-64 without -mfma, ISO mode),
-// so host and device compute these bit for bit alike.
+// backward kernel. The host build targets baseline x86-64, which has no fma instruction, so
+// g++ cannot contract (even in its GNU mode's -ffp-contract=fast); host and device then
+// compute these bit for bit alike. A host build with -march=native (FMA) may differ.
 HAHA_HD float mul_rn(float a, float b) {
 #if defined(__CUDA_ARCH__)
   return __fmul_rn(a, b);
