@@ -223,10 +223,10 @@ void BM_PoseGaussians(benchmark::State& state) {
       gs(3 * size_t(N));
   timed_loop(state, [&] {
     if (!backward)
-      cuda::pose_gaussians_cuda(s.verts.data(), s.body->faces.data(), s.body->num_faces, 1.0f, l, m.data(), q.data(),
+      cuda::pose_gaussians_cuda(s.verts.data(), s.body->faces.data(), s.body->topology.num_faces, 1.0f, l, m.data(), q.data(),
                                 sc.data(), scratch);
     else
-      cuda::pose_gaussians_backward_cuda(s.verts.data(), s.body->faces.data(), s.body->num_faces, 1.0f, l, dm.data(),
+      cuda::pose_gaussians_backward_cuda(s.verts.data(), s.body->faces.data(), s.body->topology.num_faces, 1.0f, l, dm.data(),
                                          dq.data(), ds.data(), gv.data(), go.data(), gr.data(), gs.data(), scratch);
   });
 }
@@ -239,9 +239,9 @@ void BM_MeshRender(benchmark::State& state) {
   in.verts = s.verts.data();
   in.num_verts = s.host.body.num_verts;
   in.faces = s.body->faces.data();
-  in.num_faces = s.body->num_faces;
+  in.num_faces = s.body->topology.num_faces;
   in.uv = s.body->uv.data();
-  in.num_uv = s.body->num_uv;
+  in.num_uv = s.body->topology.num_uv;
   in.uv_faces = s.body->uv_faces.data();
   in.texture = s.tex;
   cuda::MeshRenderCuda out;
