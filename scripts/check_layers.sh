@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The layering check (run by ctest as `layering`): every #include "<layer>/..." in the
 # sources must point at the same layer or one it may use. Layers, bottom up:
-#   core < body < render < cuda < train;  io < data;  format;  runtime;  app;  cli
+#   core < body < render < cuda < train;  render < synth;  io < data (also on synth);
+#   format;  runtime;  app;  cli
 # runtime/ (libhaha_runtime.so) publishes "haha/haha_runtime.h"; samples/ may include
 # nothing else of the project (they build against an installed prefix).
 # Fails with one line per wrong-way include: file:line: <layer> may not include <layer>/.
@@ -14,8 +15,9 @@ declare -A allowed=(
   [render]="core body render"
   [cuda]="core body render cuda"
   [train]="core body render cuda train"
+  [synth]="core body render synth"
   [io]="core body render io"
-  [data]="core body render io data"
+  [data]="core body render io synth data"
   [format]="core body render io format"
   [runtime]="core body render io format haha"
   [samples]="haha"
