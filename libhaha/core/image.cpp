@@ -54,4 +54,10 @@ Image crop(const Image& src, int x0, int y0, int w, int h) {
   return out;
 }
 
+void round_to_8bit(Image& img) {
+  // Times 1/255, not divided by 255: what OpenImageIO's read does (they differ in the last
+  // bit for some codes; tests/io/image_test.cpp compares with a real PNG).
+  for (float& v : img.data) v = float(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)) * (1.0f / 255.0f);
+}
+
 }  // namespace haha

@@ -25,4 +25,9 @@ Image resize_area(const Image& src, int w, int h);
 // Sub-rectangle [x0, x0 + w) x [y0, y0 + h); must lie inside the image.
 Image crop(const Image& src, int x0, int y0, int w, int h);
 
+// What an 8-bit file (PNG) holds of `img` once written and read back through io/image.h:
+// every value clamped to [0, 1] and rounded to the nearest multiple of 1/255. For pixels
+// handed over in memory that would otherwise have gone through such a file.
+void round_to_8bit(Image& img);
+
 }  // namespace haha
