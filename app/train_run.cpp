@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "app/device.h"
 #include "app/lpips_weights.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
@@ -17,6 +16,7 @@
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
+#include "train/device.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
 
