@@ -1,8 +1,8 @@
 // train_bench through the executable, on the CPU at a tiny scale (what any machine, the
 // GPU one included, can run in seconds): the JSON holds the requested step counts and
-// finite PSNR / SSIM values; a bad option is one error line and exit code 1; and, where
-// the I/O build made the haha command, its numbers are `haha synth` + `haha train` +
-// `haha eval`'s exactly.
+// finite PSNR / SSIM values; the default size; a bad option is one error line and exit
+// code 1; and, where the I/O build made the haha command, its numbers are `haha synth` +
+// `haha train` + `haha eval`'s exactly.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -86,6 +86,21 @@ TEST_F(TrainBench, TinyCpuRunWritesTheTableAndJson) {
   for (double v : json_numbers(j, "seconds")) EXPECT_TRUE(std::isfinite(v) && v >= 0) << j;
   for (const auto& e : fs::directory_iterator(dir_))  // written through a temporary name
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// Without --size the frames are rendered at the paper's 544 px (then resampled to the
+// config's resolution); --no-eval leaves the evaluation out of the JSON.
+TEST_F(TrainBench, DefaultSizeIs544AndNoEvalSkipsTheEvaluation) {
+  ASSERT_EQ(run(kTrainBench, "--frames 1 --test-frames 0 --no-eval --set s1.steps=1 --set s2.steps=0 --set s3.steps=0 "
+                             "--set resolution=32 --threads 2 --json bench.json"),
+            0)
+      << err_;
+  EXPECT_NE(out_.find("rendered at 544 px"), std::string::npos) << out_;
+  EXPECT_EQ(out_.find("evaluation"), std::string::npos) << out_;
+  const std::string j = slurp(dir_ / "bench.json");
+  EXPECT_EQ(json_numbers(j, "size"), (std::vector<double>{544}));
+  EXPECT_EQ(json_numbers(j, "steps"), (std::vector<double>{1, 0, 0}));
+  EXPECT_NE(j.find("\"eval\": null"), std::string::npos) << j;
 }
 
 TEST_F(TrainBench, BadOptionIsOneErrorLine) {

@@ -60,6 +60,7 @@ options:
 )";
 
 struct Options {
+  Options() { synth.size = 544; }  // the paper's resolution (haha synth's default is 128)
   SynthOptions synth;
   double fit_noise = 0;
   std::string preset = "tiny";
