@@ -201,10 +201,11 @@ int run(const Options& o) {
   }
   const Device device = parse_device(o.device);  // a missing GPU fails here, before any work
   const std::string gpu = device == Device::cuda ? gpu_description() : "";
+  std::string sets;
+  for (const std::string& kv : o.sets) sets += " " + kv;
   std::printf("train_bench: subject %d, %d px, %d train + %d test frames, preset %s%s, device %s%s%s, %d threads\n",
               o.synth.subject, o.synth.size, o.synth.train_frames, o.synth.test_frames, cfg.preset.c_str(),
-              o.sets.empty() ? "" : " (with --set)", device_name(device), gpu.empty() ? "" : ": ", gpu.c_str(),
-              num_threads());
+              sets.c_str(), device_name(device), gpu.empty() ? "" : ": ", gpu.c_str(), num_threads());
   std::fflush(stdout);
 
   // The subject and its frames, as `haha synth` (procedural body at full resolution) and
@@ -312,9 +313,9 @@ int run(const Options& o) {
     field("seed", std::to_string(o.synth.seed));
     field("fit_noise", json_number(o.fit_noise));
     field("preset", json_string(cfg.preset));
-    std::string sets = "[";
-    for (size_t i = 0; i < o.sets.size(); ++i) sets += (i ? ", " : "") + json_string(o.sets[i]);
-    field("overrides", sets + "]");
+    std::string overrides = "[";
+    for (size_t i = 0; i < o.sets.size(); ++i) overrides += (i ? ", " : "") + json_string(o.sets[i]);
+    field("overrides", overrides + "]");
     field("device", json_string(device_name(device)));
     field("gpu", gpu.empty() ? "null" : json_string(gpu));
     field("threads", std::to_string(num_threads()));
