@@ -11,12 +11,12 @@
 #include <vector>
 
 #include "app/bench_sweeps.h"
-#include "app/device.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
 #include "core/error.h"
 #include "data/dataset.h"
 #include "format/avatar_pack.h"
+#include "train/device.h"
 
 namespace haha {
 

@@ -4,10 +4,10 @@
 
 #include <vector>
 
-#include "app/device.h"
 #include "core/math.h"
 #include "io/ply_3dgs.h"
 #include "render/camera.h"
+#include "train/device.h"
 
 namespace haha {
 

@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "app/device.h"
 #include "app/lpips_weights.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
@@ -17,60 +16,14 @@
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
+#include "train/device.h"
+#include "train/progress.h"
 #include "train/silhouette_fit.h"
 
 namespace haha {
 
 namespace fs = std::filesystem;
 using ojson = nlohmann::ordered_json;
-
-namespace {
-
-std::string fmt_duration(double s) {
-  char buf[32];
-  if (!std::isfinite(s) || s < 0) return "?";
-  const int t = int(std::lround(s));
-  if (t >= 3600)
-    std::snprintf(buf, sizeof buf, "%dh%02dm", t / 3600, (t / 60) % 60);
-  else if (t >= 60)
-    std::snprintf(buf, sizeof buf, "%dm%02ds", t / 60, t % 60);
-  else
-    std::snprintf(buf, sizeof buf, "%ds", t);
-  return buf;
-}
-
-}  // namespace
-
-// ---- the driver -------------------------------------------------------------------------
-
-namespace {
-
-std::string progress_line(const StepReport& r, const Trainer& t, double rate, double eta) {
-  char buf[512];
-  const LossTerms& l = r.loss;
-  std::string parts;
-  auto add = [&](const char* name, double v) {
-    if (v == 0) return;
-    char b[48];
-    std::snprintf(b, sizeof b, " %s %.4g", name, v);
-    parts += b;
-  };
-  add("l2", l.l2);
-  add("ssim", l.ssim);
-  add("sobel", l.sobel);
-  add("lpips", l.lpips);
-  add("knn", l.knn);
-  add("dice", l.dice);
-  add("tv", l.tv);
-  add("opac", l.opacity);
-  std::snprintf(buf, sizeof buf, "[stage %d] %d/%d loss %.5f (%s) G %d | %.2f it/s | ETA %s%s", r.stage, r.step,
-                r.steps, l.total, parts.empty() ? "" : parts.c_str() + 1, r.gaussians, rate, fmt_duration(eta).c_str(),
-                r.skipped ? " | SKIPPED (non-finite)" : "");
-  (void)t;
-  return buf;
-}
-
-}  // namespace
 
 TrainRunResult run_training(const TrainRunOptions& opt) {
   auto log = [&](const std::string& s) {
@@ -158,39 +111,24 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   }
 
   TrainRunResult res;
-  auto t_stage = std::chrono::steady_clock::now();
-  int stage_started_step = trainer.step_in_stage();
-  int cur_stage = trainer.stage();
+  TrainProgress progress(cfg, trainer.step_in_stage());
   while (!trainer.done()) {
     if (opt.stop_after >= 0 && res.steps_run >= opt.stop_after) break;
     const StepReport r = trainer.step();
     ++res.steps_run;
     const bool stage_end = trainer.stage() != r.stage;
-    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stage).count();
-    const int done_in_stage = r.step - stage_started_step;
-    const double rate = el > 0 ? done_in_stage / el : 0.0;
-    // ETA: this stage at its measured rate, later stages at that rate scaled by their
-    // typical relative step cost (stage 2 touches only the texture, stage 3 has no LBS or
-    // position gradients); a rough guide, refined as each stage starts.
-    const double cost[3] = {1.0, 0.15, 0.4};
-    double eta = rate > 0 ? double(r.steps - r.step) / rate : NAN;
-    for (int s = r.stage + 1; s <= 3 && rate > 0; ++s)
-      eta += double(s == 2 ? cfg.s2.steps : cfg.s3.steps) * cost[s - 1] / cost[r.stage - 1] / rate;
+    progress.update(r, stage_end);
     if (r.step % cfg.log_every == 0 || stage_end || !r.event.empty() || r.skipped) {
-      log(progress_line(r, trainer, rate, eta));
+      log(progress_line(r, progress.rate(), progress.eta()));
       if (!r.event.empty()) log("  " + r.event);
     }
     if (stage_end) {
       write_checkpoint(run.stage_checkpoint(r.stage), trainer.save());
       write_checkpoint(ck_path, trainer.save());
-      t_stage = std::chrono::steady_clock::now();
-      stage_started_step = 0;
-      cur_stage = trainer.stage();
     } else if (cfg.checkpoint_every > 0 && r.step % cfg.checkpoint_every == 0) {
       write_checkpoint(ck_path, trainer.save());
     }
   }
-  (void)cur_stage;
   res.finished = trainer.done();
   res.gaussians = trainer.num_gaussians();
   res.stage_seconds = trainer.stage_seconds();

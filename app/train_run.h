@@ -17,7 +17,7 @@ struct TrainRunOptions {
   std::vector<std::string> overrides;  // key=value
   bool resume = false;
   std::string lpips_weights;           // optional file
-  std::string device = "cpu";          // cpu, cuda or auto (app/device.h); not part of the run's config
+  std::string device = "cpu";          // cpu, cuda or auto (train/device.h); not part of the run's config
   int64_t stop_after = -1;             // >= 0: stop (as if killed) after this many steps in total
   std::function<void(const std::string&)> log;  // progress lines (null: stdout)
 };

@@ -8,7 +8,7 @@
 #include "app/video_fit.h"
 #include "command.h"
 #include "core/interrupt.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
 
 HAHA_COMMAND(fit_video) {
   struct Opts {

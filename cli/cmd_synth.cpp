@@ -2,7 +2,7 @@
 // clothes, plus hair, ponytail and skirt that leave the body surface; or, with
 // --subject 2, long loose hair and a loose long coat on another body shape) rendered as a
 // monocular video with masks, a static camera and per-frame SMPL-X fits, in the native
-// dataset format (data/synth_subject.h, data/dataset.h).
+// dataset format (data/synth_dataset.h, synth/synth_subject.h).
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -12,7 +12,7 @@
 #include "command.h"
 #include "core/error.h"
 #include "data/dataset.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
 #include "data/xhumans_take.h"
 
 HAHA_COMMAND(synth) {

@@ -1,30 +1,15 @@
 // Contact sheets: many small images tiled into one picture with a text label under each,
-// for a person to look at (synthetic data, training progress, evaluation). Labels use a
-// built-in 5 x 7 bitmap font (ASCII letters, digits and common punctuation; lower case is
-// drawn as upper case, anything else as '?'), so no font file or library is needed.
+// for a person to look at (synthetic data, training progress, evaluation). Labels use the
+// built-in bitmap font (core/bitmap_font.h), so no font file or library is needed.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "core/bitmap_font.h"
 #include "io/image.h"
 
 namespace haha {
-
-constexpr int kFontWidth = 5, kFontHeight = 7;
-constexpr int kFontAdvance = kFontWidth + 1;  // one blank column between characters
-
-// Whether pixel (x, y) of character c's glyph is set; x in [0, 5), y in [0, 7) from the
-// top. Outside that box: false.
-bool font_pixel(char c, int x, int y);
-
-// Width in pixels of `text` drawn at `scale` (no trailing gap): advance * n - scale.
-int text_width(const std::string& text, int scale = 1);
-
-// Draws `text` with its top-left corner at (x, y), each font pixel a scale x scale block of
-// colour rgb (1-channel images get the mean of rgb; a 4th channel is set to 1). Clipped to
-// the image.
-void draw_text(Image& img, int x, int y, const std::string& text, const float rgb[3], int scale = 1);
 
 struct ContactSheetTile {
   Image image;           // 1 (grey), 3 (RGB) or 4 (RGBA, composited over the background) channels

@@ -1,23 +1,14 @@
 // Image files through OpenImageIO (png, jpg, exr, tiff, anything else OIIO reads).
-// Pixels are float, row-major, top row first, channels interleaved. Values are the stored
-// (display-encoded) values: no colour-space conversion happens on read or write.
+// Pixels are core/image.h's Image (float, row-major, top row first, channels interleaved;
+// resampling and crops are there too). Values are the stored (display-encoded) values: no
+// colour-space conversion happens on read or write.
 #pragma once
 
 #include <string>
-#include <vector>
+
+#include "core/image.h"
 
 namespace haha {
-
-struct Image {
-  int width = 0, height = 0, channels = 0;
-  std::vector<float> data;  // width * height * channels
-
-  Image() = default;
-  Image(int w, int h, int c, float fill = 0.0f) : width(w), height(h), channels(c), data(size_t(w) * h * c, fill) {}
-  bool empty() const { return data.empty(); }
-  float& at(int x, int y, int c) { return data[(size_t(y) * width + x) * channels + c]; }
-  float at(int x, int y, int c) const { return data[(size_t(y) * width + x) * channels + c]; }
-};
 
 struct ImageInfo {
   int width = 0, height = 0, channels = 0;
@@ -39,12 +30,5 @@ Image read_depth(const std::string& path);
 // quality 95); .exr half-float (`exr_full_float`: float32); .tif/.tiff float32. 1, 2, 3 or 4
 // channels (jpeg: 1 or 3). Non-finite values are an error naming the file. Atomic.
 void write_image(const std::string& path, const Image& img, bool exr_full_float = false);
-
-// Area-weighted resampling: each output pixel is the exact average of the source area it
-// covers (pixel-edge convention, so pixel coordinates scale by w/src.width, h/src.height).
-Image resize_area(const Image& src, int w, int h);
-
-// Sub-rectangle [x0, x0 + w) x [y0, y0 + h); must lie inside the image.
-Image crop(const Image& src, int x0, int y0, int w, int h);
 
 }  // namespace haha

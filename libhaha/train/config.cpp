@@ -286,6 +286,12 @@ void validate_config(const TrainConfig& c) {
        "must be auto, true or false");
 }
 
+bool resolve_premultiplied(const std::string& setting, bool data_flag) {
+  if (setting == "true") return true;
+  if (setting == "false") return false;
+  return data_flag;
+}
+
 std::vector<std::pair<std::string, std::string>> config_to_pairs(const TrainConfig& c) {
   TrainConfig copy = c;
   std::vector<std::pair<std::string, std::string>> out;

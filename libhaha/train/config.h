@@ -157,6 +157,10 @@ void apply_overrides(TrainConfig& c, const std::vector<std::string>& kv, const s
 // haha::Error "config: <key>: <problem>".
 void validate_config(const TrainConfig& c);
 
+// Whether the images count as composited on black with their soft masks under the config's
+// `premultiplied` setting: "true" / "false", or for "auto" the data's own flag.
+bool resolve_premultiplied(const std::string& setting, bool data_flag);
+
 // (key, value) pairs of every entry, in entries() order.
 std::vector<std::pair<std::string, std::string>> config_to_pairs(const TrainConfig& c);
 

@@ -16,7 +16,7 @@
 #include "app/subprocess.h"
 #include "body/procedural_body.h"
 #include "core/atomic_file.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
 #include "support/data_test_util.h"
 #include "support/fit_video_oracle.h"
 

@@ -5,7 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include "body/procedural_body.h"
-#include "data/synth_subject.h"
+#include "synth/synth_subject.h"
 
 using namespace haha;
 

@@ -20,7 +20,7 @@
 #include "app/train_run.h"
 #include "body/procedural_body.h"
 #include "data/dataset.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
 #include "format/avatar_npz.h"
 #include "train/evaluate.h"
 

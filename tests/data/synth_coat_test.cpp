@@ -13,10 +13,10 @@
 #include "body/procedural_body.h"
 #include "body/rotation.h"
 #include "core/error.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
 #include "support/expect_error.h"
 #include "support/synth_mesh_checks.h"
+#include "synth/synth_internal.h"
+#include "synth/synth_subject.h"
 
 namespace haha {
 namespace {

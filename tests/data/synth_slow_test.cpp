@@ -10,8 +10,8 @@
 
 #include "body/procedural_body.h"
 #include "data/dataset.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
+#include "synth/synth_internal.h"
 
 namespace haha {
 namespace {

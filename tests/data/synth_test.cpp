@@ -22,12 +22,12 @@
 #include "core/parallel.h"
 #include "data/contact_sheet.h"
 #include "data/dataset.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
+#include "data/synth_dataset.h"
 #include "io/image.h"
 #include "io/npy.h"
 #include "support/expect_error.h"
 #include "support/synth_mesh_checks.h"
+#include "synth/synth_internal.h"
 
 namespace haha {
 namespace {

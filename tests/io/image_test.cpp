@@ -171,6 +171,26 @@ TEST_F(ImageTest, FailedWritesLeaveNothing) {
   EXPECT_TRUE(fs::is_empty(dir_));
 }
 
+// Pixels handed over in memory instead of through a PNG (train_bench's frames) are the ones
+// the file would give back: every 8-bit code, both sides of each rounding boundary, the
+// clamped ends.
+TEST_F(ImageTest, RoundTo8BitEqualsAPngRoundTrip) {
+  std::vector<float> values = {-1.0f, -0.0f, 0.0f, 1.0f, 1.5f, 1e-9f, 0.99999f};
+  for (int k = 0; k < 256; ++k) {
+    values.push_back(k / 255.0f);
+    const float edge = (k + 0.5f) / 255.0f;
+    for (float v : {edge, std::nextafter(edge, 0.0f), std::nextafter(edge, 1.0f)}) values.push_back(v);
+  }
+  for (int i = 0; i < 4000; ++i) values.push_back(float((i * 2654435761u) % 1000003u) / 1000003.0f);
+  Image img(int(values.size()), 1, 1);
+  img.data = values;
+  write_image(path("r.png"), img);
+  const Image back = read_image(path("r.png"));
+  round_to_8bit(img);
+  ASSERT_EQ(back.data.size(), img.data.size());
+  for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(back.data[i], img.data[i]) << "value " << values[i];
+}
+
 TEST(ImageResample, AreaAverageProperties) {
   const Image img = pattern(12, 8, 3);
   // Exact 2x downscale = 2x2 block means.

@@ -1,4 +1,4 @@
-// A synthetic garment mesh (data/synth_subject.h SynthMesh) is well formed: faces and UV
+// A synthetic garment mesh (synth/synth_subject.h SynthMesh) is well formed: faces and UV
 // faces in range, UVs in [0, 1], finite rest positions, and per vertex valid skinning
 // weights summing to 1. Shared by the tests of both subjects.
 #pragma once
@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "body/body_model.h"
-#include "data/synth_subject.h"
+#include "synth/synth_subject.h"
 
 namespace haha::test {
 

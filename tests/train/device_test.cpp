@@ -1,10 +1,10 @@
-// --device parsing (app/device.h): the names, and a clear error where no GPU can be used.
+// --device parsing (train/device.h): the names, and a clear error where no GPU can be used.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "app/device.h"
 #include "core/error.h"
+#include "train/device.h"
 
 namespace haha {
 namespace {

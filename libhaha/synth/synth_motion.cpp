@@ -19,8 +19,8 @@
 #include "body/rotation.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
+#include "synth/synth_internal.h"
+#include "synth/synth_subject.h"
 
 namespace haha {
 namespace {

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "body/body_model.h"
+#include "core/image.h"
 #include "core/math.h"
-#include "data/synth_subject.h"
-#include "io/image.h"
+#include "synth/synth_subject.h"
 
 namespace haha::synth {
 

@@ -1,6 +1,7 @@
 // The synthetic subject: the project's embedded sample (`haha synth`). A clothed person
 // built on any SMPL-X-layout body model (normally the procedural body), rendered as a
-// monocular video in the native dataset format (data/dataset.h).
+// monocular video in memory (no file I/O; data/synth_dataset.h writes it in the native
+// dataset format).
 //
 // What it is made of, and why (HAHA = textured mesh + Gaussians where the mesh fails):
 //  - a UV texture on the body's own atlas (vt, ft): skin, a checked shirt with a chest
@@ -37,6 +38,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,7 +47,7 @@
 #include "body/lbs.h"
 #include "body/procedural_body.h"
 #include "body/smplx_params.h"
-#include "io/image.h"
+#include "core/image.h"
 #include "render/camera.h"
 #include "render/mesh_raster.h"
 
@@ -183,7 +185,7 @@ Camera synth_camera(const SynthRenderer& renderer, const std::vector<const Smplx
                     double distance = 2.8, double fill = 0.9);
 
 // ---------------------------------------------------------------------------------------
-// The dataset (`haha synth`).
+// The frames of `haha synth`, in memory (data/synth_dataset.h writes them as a dataset).
 
 struct SynthOptions {
   int size = 128;           // image side in pixels
@@ -206,23 +208,28 @@ double default_view_shading(int subject);
 // options.
 void validate_synth_options(const SynthOptions& opt);
 
-// The body `haha synth` uses: `path` loaded when given, else the procedural body.
-BodyModel synth_body(const std::string& path, BodyResolution resolution, uint64_t seed);
-
-struct SynthSummary {
-  Camera camera;
-  int train_frames = 0, test_frames = 0;
-  int texture_size = 0;
-  double min_pose_gap = 0;  // measured min over (test, train) pairs of pose_distance
+// What the frames are rendered from: frame i < options.train_frames is training frame i
+// (the turn), the rest are the test frames (novel poses).
+struct SynthScene {
+  SynthOptions options;
+  SynthSubject subject;
+  int texture_size = 0;            // of the body atlas (the options' or the automatic one)
+  double view_shading = 0;         // the strength in use
+  std::vector<SmplxParams> truth;  // true parameters per frame (the dataset's params_true)
+  std::vector<SmplxParams> fits;   // truth with the options' fit noise (the dataset's params)
+  Camera camera;                   // static, options.size square
+  double min_pose_gap = 0;  // measured min over (test, train) pairs of pose_distance (0: no test frames)
 };
 
-// Renders the whole dataset into `dir` through DatasetWriter, plus dir/contact_sheet.png,
-// dir/synth_texture.png (the body atlas: what an ideal learned texture holds) and, when
-// `save_body` is set, dir/body_model.npz (the body used). All of it is assembled beside
-// `dir` and moved into place at the end: a failure leaves `dir` untouched. An existing
-// `dir` is replaced only if it is empty or holds a dataset.json. `log` (may be null)
-// receives progress lines.
-SynthSummary write_synth_dataset(const std::string& dir, const BodyModel& body, const SynthOptions& opt,
-                                 bool save_body, void (*log)(const std::string&) = nullptr);
+// Validates the options, builds the subject on `body` (which needs vt/ft), its motions,
+// fits and camera.
+SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt);
+
+// Renders every frame of the scene, supersampled (SynthRenderer::render, all parts), and
+// hands them to sink(frame, rgb (H, W, 3) on black, mask (H, W, 1) coverage) in frame
+// order, on the calling thread. Small frames are rendered several at a time, large ones
+// one at a time (memory: one supersampled raster). `body` is the scene's.
+void render_synth_frames(const BodyModel& body, const SynthScene& scene,
+                         const std::function<void(int frame, const Image& rgb, const Image& mask)>& sink);
 
 }  // namespace haha

@@ -4,9 +4,9 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
 #include "render/texture.h"
+#include "synth/synth_internal.h"
+#include "synth/synth_subject.h"
 
 namespace haha {
 

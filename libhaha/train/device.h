@@ -1,6 +1,6 @@
-// Where a command runs its kernels: `--device cpu|cuda` on train, eval, render, render-ply
-// and bench. The application layer links the CUDA backend whenever the build has one, so
-// this is the one place that asks whether it exists.
+// Where a command runs its kernels: `--device cpu|cuda` on train, eval, render, render-ply,
+// bench and train_bench. The trainer layer (and so everything above it) links the CUDA
+// backend whenever the build has one, so this is the one place that asks whether it exists.
 #pragma once
 
 #include <string>

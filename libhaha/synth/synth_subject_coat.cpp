@@ -7,8 +7,8 @@
 #include <random>
 
 #include "core/error.h"
-#include "data/synth_internal.h"
-#include "data/synth_subject.h"
+#include "synth/synth_internal.h"
+#include "synth/synth_subject.h"
 
 namespace haha {
 namespace synth {

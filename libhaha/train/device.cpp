@@ -1,4 +1,4 @@
-#include "app/device.h"
+#include "train/device.h"
 
 #include "core/error.h"
 

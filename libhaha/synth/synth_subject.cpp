@@ -1,6 +1,6 @@
 // The clothed synthetic subject: anatomy landmarks from the rest joints, garment geometry
 // (hair shell, ponytail, skirt) and the two painted textures. See synth_subject.h.
-#include "data/synth_subject.h"
+#include "synth/synth_subject.h"
 
 #include <algorithm>
 #include <array>
@@ -8,10 +8,10 @@
 #include <functional>
 #include <random>
 
+#include "core/bitmap_font.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "data/contact_sheet.h"
-#include "data/synth_internal.h"
+#include "synth/synth_internal.h"
 
 namespace haha {
 namespace synth {

@@ -1,0 +1,91 @@
+// The frames of `haha synth` in memory: options, the scene (subject, motions, fits,
+// camera) and the rendering loop. data/synth_dataset.cpp writes them as a dataset.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "synth/synth_subject.h"
+
+namespace haha {
+
+void validate_synth_options(const SynthOptions& o) {
+  if (o.size < 16 || o.size > 4096) fail("--size", std::to_string(o.size) + " is outside [16, 4096] pixels");
+  if (o.train_frames < 1 || o.train_frames > 100000)
+    fail("--frames", std::to_string(o.train_frames) + " is outside [1, 100000]");
+  if (o.test_frames < 0 || o.test_frames > 100000)
+    fail("--test-frames", std::to_string(o.test_frames) + " is outside [0, 100000]");
+  if (!std::isfinite(o.fit_noise.pose) || o.fit_noise.pose < 0 || o.fit_noise.pose > 1)
+    fail("--fit-noise-pose", "must be in [0, 1] radians");
+  if (!std::isfinite(o.fit_noise.transl) || o.fit_noise.transl < 0 || o.fit_noise.transl > 1)
+    fail("--fit-noise-transl", "must be in [0, 1] metres");
+  if (o.supersample < 1 || o.supersample > 8) fail("--supersample", "must be in [1, 8]");
+  // One supersampled raster holds ~24 bytes per subsample (3.6 GB at 12288 x 12288).
+  if (o.size * o.supersample > 12288)
+    fail("--supersample", "size x supersample = " + std::to_string(o.size * o.supersample) +
+                              " exceeds 12288 (memory of the supersampled raster)");
+  if (o.texture_size != 0 && (o.texture_size < 16 || o.texture_size > 8192))
+    fail("--texture-size", "must be 0 (automatic) or in [16, 8192]");
+  if (!std::isfinite(o.camera_distance) || o.camera_distance < 1 || o.camera_distance > 100)
+    fail("--camera-distance", "must be in [1, 100] metres");
+  if (o.sheet_train < 0 || o.sheet_test < 0) fail("contact sheet", "frame counts must be >= 0");
+  if (o.subject != 1 && o.subject != 2)
+    fail("--subject", std::to_string(o.subject) + " is not a subject (expected 1 or 2)");
+  if (!(o.view_shading == -1 || (o.view_shading >= 0 && o.view_shading <= 2)))
+    fail("--view-shading", "must be in [0, 2] (-1: the subject's default)");
+}
+
+SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
+  validate_synth_options(opt);
+  SynthScene sc;
+  sc.options = opt;
+  SynthSubjectOptions so;
+  so.seed = opt.seed;
+  so.subject = opt.subject;
+  so.texture_size = opt.texture_size > 0 ? opt.texture_size : (opt.size <= 256 ? 512 : (opt.size <= 512 ? 1024 : 2048));
+  sc.subject = make_synth_subject(body, so);
+  sc.texture_size = so.texture_size;
+  sc.view_shading = opt.view_shading < 0 ? default_view_shading(opt.subject) : opt.view_shading;
+  const SynthMotion motion = make_synth_motion(body, sc.subject, opt.train_frames, opt.test_frames, opt.seed);
+  sc.truth = motion.train;
+  sc.truth.insert(sc.truth.end(), motion.test.begin(), motion.test.end());
+  sc.fits = perturb_fits(sc.truth, opt.fit_noise, opt.seed);
+  std::vector<const SmplxParams*> all;
+  for (const SmplxParams& p : sc.truth) all.push_back(&p);
+  sc.camera = synth_camera(SynthRenderer(body, sc.subject), all, opt.size, opt.camera_distance);
+  sc.min_pose_gap = motion.test.empty() ? 0 : 1e30;
+  for (const SmplxParams& a : motion.test)
+    for (const SmplxParams& b : motion.train) sc.min_pose_gap = std::min(sc.min_pose_gap, pose_distance(a, b));
+  return sc;
+}
+
+void render_synth_frames(const BodyModel& body, const SynthScene& scene,
+                         const std::function<void(int frame, const Image& rgb, const Image& mask)>& sink) {
+  const SynthOptions& opt = scene.options;
+  SynthRenderer renderer(body, scene.subject);
+  renderer.set_view_shading(scene.view_shading);  // before the per-thread copies are made
+  // Small frames: one frame per thread (few, large parallel regions; the renderer's own
+  // loops then run single-threaded inside). Large frames: one at a time, parallel
+  // inside, which bounds memory to one supersampled raster.
+  const int N = int(scene.truth.size());
+  const int threads = std::max(1, num_threads());
+  const bool by_frame = threads > 1 && opt.size <= 256;
+  const int batch = by_frame ? 2 * threads : 1;
+  std::vector<SynthRenderer> pool(by_frame ? size_t(threads) : 0, renderer);
+  std::vector<Image> rgbs(static_cast<size_t>(batch)), masks(static_cast<size_t>(batch));
+  for (int b0 = 0; b0 < N; b0 += batch) {
+    const int n = std::min(batch, N - b0);
+    if (by_frame) {
+      parallel_for_dynamic(n, [&](int64_t k) {
+        pool[size_t(thread_index())].render(scene.camera, scene.truth[b0 + k], opt.supersample, kSynthAll, rgbs[k],
+                                            masks[k]);
+      });
+    } else {
+      renderer.render(scene.camera, scene.truth[b0], opt.supersample, kSynthAll, rgbs[0], masks[0]);
+    }
+    for (int k = 0; k < n; ++k) sink(b0 + k, rgbs[size_t(k)], masks[size_t(k)]);
+  }
+}
+
+}  // namespace haha
