@@ -110,6 +110,7 @@ TEST_F(TrainBench, BadOptionIsOneErrorLine) {
       {"--size", "train_bench: error: --size: needs a value\n"},
       {"--device gpu", "train_bench: error: --device: unknown device 'gpu' (expected cpu, cuda or auto)\n"},
       {"--subject 3", "train_bench: error: --subject: 3 is not a subject (expected 1 or 2)\n"},
+      {"--fit-noise-pose 2", "train_bench: error: --fit-noise-pose: must be in [0, 1]\n"},
   };
   for (const auto& [args, line] : cases) {
     EXPECT_EQ(run(kTrainBench, "--json bad.json " + std::string(args)), 1) << args;
@@ -121,20 +122,25 @@ TEST_F(TrainBench, BadOptionIsOneErrorLine) {
   EXPECT_EQ(err_.find('\n'), err_.size() - 1) << err_;
   EXPECT_FALSE(fs::exists(dir_ / "bad.json"));
   EXPECT_EQ(run(kTrainBench, "--help"), 0);
-  for (const char* opt : {"--subject", "--size", "--frames", "--test-frames", "--fit-noise", "--preset", "--set",
+  for (const char* opt : {"--subject", "--size", "--frames", "--test-frames", "--fit-noise", "--fit-noise-pose",
+                          "--fit-noise-transl", "--preset", "--set",
                           "--device", "--threads", "--no-eval", "--json"})
     EXPECT_NE(out_.find(opt), std::string::npos) << opt;
 }
 
-// The same subject, training and evaluation as the dataset route: bit-identical metrics.
+// The same subject, training and evaluation as the dataset route: bit-identical metrics
+// (with pose and transl noise of different sizes, so a swap of the two shows).
 TEST_F(TrainBench, SameNumbersAsHahaSynthTrainEval) {
   if (!fs::exists(kHaha)) GTEST_SKIP() << "the haha executable is not built at " << kHaha << " (HAHA_WITH_IO=OFF)";
   const std::string steps = "s1.steps=2 s2.steps=3 s3.steps=4 resolution=48";
-  ASSERT_EQ(run(kHaha, "synth --out ds --size 48 --frames 2 --test-frames 2 --fit-noise 0.01"), 0) << err_;
+  ASSERT_EQ(run(kHaha, "synth --out ds --size 48 --frames 2 --test-frames 2 --fit-noise-pose 0.03 --fit-noise-transl 0.01"),
+            0)
+      << err_;
   ASSERT_EQ(run(kHaha, "--threads 2 train --data ds --out run --preset tiny " + steps), 0) << err_;
   ASSERT_EQ(run(kHaha, "--threads 2 eval --run run --data ds --tto-steps 0"), 0) << err_;
   const std::string report = slurp(dir_ / "run" / "report.json");
-  ASSERT_EQ(run(kTrainBench, std::string(kTiny) + " --fit-noise 0.01 --json bench.json"), 0) << err_;
+  ASSERT_EQ(run(kTrainBench, std::string(kTiny) + " --fit-noise-pose 0.03 --fit-noise-transl 0.01 --json bench.json"), 0)
+      << err_;
   const std::string bench = slurp(dir_ / "bench.json");
   for (const char* variant : {"mesh only", "full Gaussians", "HAHA filtered"})
     for (const char* key : {"psnr", "ssim"}) {

@@ -50,6 +50,8 @@ options:
   --test-frames N    test frames (novel poses)                             [10]
   --seed S           subject, motion, fit noise and body seed              [0]
   --fit-noise S      sigma of the fits' noise, pose (rad) and transl (m)   [0]
+  --fit-noise-pose R     its pose part alone (rad)          [--fit-noise]
+  --fit-noise-transl M   its transl part alone (m)          [--fit-noise]
   --preset NAME      tiny or paper                                         [tiny]
   --set KEY=VALUE    config override, repeatable (as `haha train KEY=VALUE`)
   --device NAME      cpu, cuda or auto                                     [cpu]
@@ -62,7 +64,7 @@ options:
 struct Options {
   Options() { synth.size = 544; }  // the paper's resolution (haha synth's default is 128)
   SynthOptions synth;
-  double fit_noise = 0;
+  double fit_noise = 0, fit_noise_pose = -1, fit_noise_transl = -1;  // -1: as fit_noise
   std::string preset = "tiny";
   std::vector<std::string> sets;
   std::string device = "cpu";
@@ -117,6 +119,12 @@ Options parse_args(int argc, char** argv) {
       o.synth.seed = parse_number<uint64_t>(arg, next());
     } else if (arg == "--fit-noise") {
       o.fit_noise = parse_number<double>(arg, next());
+    } else if (arg == "--fit-noise-pose") {
+      o.fit_noise_pose = parse_number<double>(arg, next());
+      if (!(o.fit_noise_pose >= 0 && o.fit_noise_pose <= 1)) fail(arg, "must be in [0, 1]");
+    } else if (arg == "--fit-noise-transl") {
+      o.fit_noise_transl = parse_number<double>(arg, next());
+      if (!(o.fit_noise_transl >= 0 && o.fit_noise_transl <= 1)) fail(arg, "must be in [0, 1]");
     } else if (arg == "--preset") {
       o.preset = next();
     } else if (arg == "--set") {
@@ -136,9 +144,10 @@ Options parse_args(int argc, char** argv) {
       fail(arg, "unknown option (see --help)");
     }
   }
-  // As `haha synth --fit-noise`: one sigma for both the pose and transl.
+  // As `haha synth --fit-noise`: one sigma for both the pose and transl unless given apart.
   if (!(o.fit_noise >= 0 && o.fit_noise <= 1)) fail("--fit-noise", "must be in [0, 1]");
-  o.synth.fit_noise.pose = o.synth.fit_noise.transl = o.fit_noise;
+  o.synth.fit_noise.pose = o.fit_noise_pose >= 0 ? o.fit_noise_pose : o.fit_noise;
+  o.synth.fit_noise.transl = o.fit_noise_transl >= 0 ? o.fit_noise_transl : o.fit_noise;
   return o;
 }
 
@@ -311,7 +320,8 @@ int run(const Options& o) {
     field("train_frames", std::to_string(o.synth.train_frames));
     field("test_frames", std::to_string(o.synth.test_frames));
     field("seed", std::to_string(o.synth.seed));
-    field("fit_noise", json_number(o.fit_noise));
+    field("fit_noise_pose", json_number(o.synth.fit_noise.pose));
+    field("fit_noise_transl", json_number(o.synth.fit_noise.transl));
     field("preset", json_string(cfg.preset));
     std::string overrides = "[";
     for (size_t i = 0; i < o.sets.size(); ++i) overrides += (i ? ", " : "") + json_string(o.sets[i]);
