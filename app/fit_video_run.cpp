@@ -203,10 +203,11 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   s.dropped = n - s.kept;
   if (!opt.truth.empty()) {
     s.truth = opt.truth;
+    const Lbs<double> fit_lbs(body), truth_lbs(truth.body);
     for (size_t k = 0; k < r.kept.size(); ++k) {
       FitVideoFrameRow& row = s.frames[size_t(r.kept[k])];
       const size_t t = size_t(row.source_index);
-      row.joint_error_mm = body_joint_pa_error_mm(body, r.params[k], truth.body, truth.params[t]);
+      row.joint_error_mm = body_joint_pa_error_mm(fit_lbs, r.params[k], truth_lbs, truth.params[t]);
       row.orient_error_deg = body_orient_error_deg(r.camera, r.params[k], truth.cameras[t], truth.params[t]);
     }
   }

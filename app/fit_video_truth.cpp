@@ -45,11 +45,11 @@ void check_truth_frames(const FitVideoTruth& t, int decoded_frames) {
                     std::to_string(decoded_frames) + ": --truth needs one per decoded frame, in order");
 }
 
-double body_joint_pa_error_mm(const BodyModel& fit_body, const SmplxParams& fit, const BodyModel& truth_body,
+double body_joint_pa_error_mm(const Lbs<double>& fit_body, const SmplxParams& fit, const Lbs<double>& truth_body,
                               const SmplxParams& truth) {
-  auto joints = [](const BodyModel& b, const SmplxParams& p) {
-    std::vector<double> v(size_t(b.num_verts) * 3), j(size_t(kNumJoints) * 3);
-    Lbs<double>(b).forward(p, v.data(), j.data(), nullptr);
+  auto joints = [](const Lbs<double>& b, const SmplxParams& p) {
+    std::vector<double> v(size_t(b.num_verts()) * 3), j(size_t(kNumJoints) * 3);
+    b.forward(p, v.data(), j.data(), nullptr);
     std::vector<Vec3d> out;
     for (int k = 0; k < kBodyJoints; ++k) out.push_back(Vec3d::load(&j[size_t(3 * k)]));
     return out;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "body/body_model.h"
+#include "body/lbs.h"
 #include "body/smplx_params.h"
 #include "render/camera.h"
 
@@ -33,8 +34,8 @@ FitVideoTruth read_fit_video_truth(const std::string& dir, const BodyModel& fall
 void check_truth_frames(const FitVideoTruth& t, int decoded_frames);
 
 // PA-MPJPE (mm) over the pelvis and the 21 body joints of `fit` posed with `fit_body` against
-// `truth` posed with `truth_body`.
-double body_joint_pa_error_mm(const BodyModel& fit_body, const SmplxParams& fit, const BodyModel& truth_body,
+// `truth` posed with `truth_body` (built once per body: an Lbs precomputes its weights).
+double body_joint_pa_error_mm(const Lbs<double>& fit_body, const SmplxParams& fit, const Lbs<double>& truth_body,
                               const SmplxParams& truth);
 
 // Angle (degrees) between the body's orientation in its camera's frame, R_cam R(global

@@ -19,6 +19,7 @@
 #include "data/synth_dataset.h"
 #include "support/data_test_util.h"
 #include "support/fit_video_oracle.h"
+#include "support/low_body.h"
 
 namespace haha {
 namespace {
@@ -26,14 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 using testutil::expect_error;
 
-const BodyModel& low_body() {
-  static const BodyModel b = [] {
-    ProceduralBodyOptions o;
-    o.resolution = BodyResolution::low;
-    return make_procedural_body(o);
-  }();
-  return b;
-}
+using test::low_body;
 
 // Pure red pixels (the dropped-frame border) in an 8-bit image.
 int red_pixels(const Image& img) {
@@ -123,7 +117,8 @@ TEST_F(FitVideoSlowTest, FolderOfFramesBecomesADatasetWithTheOraclesParameters) 
     EXPECT_DOUBLE_EQ(j["frames"][i]["reprojection_px"].get<double>(), test::OracleFitter::reprojection(i));
     EXPECT_DOUBLE_EQ(j["frames"][i]["silhouette_iou"].get<double>(), test::OracleFitter::iou(i));
     // The oracle's parameters are the dataset's fits: their error against the true fits.
-    const double pa = body_joint_pa_error_mm(low_body(), truth_.frames[size_t(i)].params, low_body(),
+    const Lbs<double> lbs(low_body());
+    const double pa = body_joint_pa_error_mm(lbs, truth_.frames[size_t(i)].params, lbs,
                                              truth_.params_true.empty() ? truth_.frames[size_t(i)].params
                                                                         : truth_.params_true[size_t(i)]);
     EXPECT_NEAR(j["frames"][i]["joint_error_mm"].get<double>(), pa, 1e-6) << i;

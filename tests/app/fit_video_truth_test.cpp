@@ -33,12 +33,13 @@ SmplxParams pose(double elbow) {
 
 TEST(FitVideoTruth, JointErrorIsZeroForTheTruthWhereverItIsPlacedAndGrowsWithABentElbow) {
   const SmplxParams t = pose(-0.2);
-  EXPECT_LT(body_joint_pa_error_mm(body(), t, body(), t), 1e-6);
+  const Lbs<double> lbs(body());
+  EXPECT_LT(body_joint_pa_error_mm(lbs, t, lbs, t), 1e-6);
   SmplxParams moved = t;
   moved.pose[0] = 2.5f, moved.pose[1] = -0.4f;  // another global orient and place: aligned away
   moved.transl = {1.0f, -2.0f, 4.0f};
-  EXPECT_LT(body_joint_pa_error_mm(body(), moved, body(), t), 1e-3);
-  const double bent = body_joint_pa_error_mm(body(), pose(-1.4), body(), t);
+  EXPECT_LT(body_joint_pa_error_mm(lbs, moved, lbs, t), 1e-3);
+  const double bent = body_joint_pa_error_mm(lbs, pose(-1.4), lbs, t);
   EXPECT_GT(bent, 5.0);
   EXPECT_LT(bent, 100.0);
 }

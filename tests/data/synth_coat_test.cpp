@@ -14,6 +14,7 @@
 #include "body/rotation.h"
 #include "core/error.h"
 #include "support/expect_error.h"
+#include "support/low_body.h"
 #include "support/synth_mesh_checks.h"
 #include "synth/synth_internal.h"
 #include "synth/synth_subject.h"
@@ -23,14 +24,7 @@ namespace {
 
 using synth::V3;
 
-const BodyModel& low_body() {
-  static const BodyModel b = [] {
-    ProceduralBodyOptions o;
-    o.resolution = BodyResolution::low;
-    return make_procedural_body(o);
-  }();
-  return b;
-}
+using test::low_body;
 
 // Built on first use only (ctest runs every test in its own process).
 const SynthSubject& subject(int which) {

@@ -26,6 +26,7 @@
 #include "io/image.h"
 #include "io/npy.h"
 #include "support/expect_error.h"
+#include "support/low_body.h"
 #include "support/synth_mesh_checks.h"
 #include "synth/synth_internal.h"
 
@@ -34,14 +35,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const BodyModel& low_body() {
-  static const BodyModel b = [] {
-    ProceduralBodyOptions o;
-    o.resolution = BodyResolution::low;
-    return make_procedural_body(o);
-  }();
-  return b;
-}
+using test::low_body;
 
 const SynthSubject& low_subject() {
   static const SynthSubject s = [] {
