@@ -104,7 +104,7 @@ void expect_close(const std::string& what, const std::vector<float>& cpu, const 
 }
 
 // Arrays whose elements are sums of cancelling terms (vertex positions through the joint
-// chain, quaternions of nearly opposite frames, gradients through thin triangles) can
+// chain, quaternion components near zero, gradients through thin triangles) can
 // differ beyond the per-element tolerance by rounding alone: nvcc contracts multiply-adds
 // and g++ does not. Such arrays are judged against a float64 evaluation of the same code:
 // the GPU must be as accurate as the CPU (RMS error at most 2x, largest error at most 4x

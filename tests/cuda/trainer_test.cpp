@@ -146,8 +146,9 @@ void expect_gradient_close(const std::string& what, const std::vector<float>& cp
   EXPECT_LE(rel_l2(cpu, gpu), kGradTol + 4 * spread_l2) << what << ": one-ulp spread " << spread_l2;
 }
 
-// Values moved by a first Adam step: the moves agree within 2 lr (lr = the CPU's largest
-// move), and within lr / 2 but for kCutFrac of them; unmoved arrays stay exact.
+// Values moved by one Adam step: the moves agree within 2 lr (lr = the CPU's largest
+// move), and within lr / 2 (or 4x the one-ulp spread) but for kCutFrac of them; unmoved
+// arrays stay exact.
 void expect_update_close(const std::string& what, const std::vector<float>& before, const std::vector<float>& cpu,
                          const std::vector<float>& gpu, const std::vector<float>& noise) {
   ASSERT_EQ(cpu.size(), gpu.size()) << what;
