@@ -3,11 +3,11 @@
 # render benchmark, the paper preset end to end on the GPU, per-kernel times of training
 # steps (Nsight Compute), and CPU thread scaling of both presets.
 #   scripts/gpu-measure.sh BIN OUT [parts...]
-# BIN holds the no-I/O build's programs (test_cuda_parity_test, test_cuda_trainer_test,
-# bench_cuda, train_bench; lib/ beside them is put on LD_LIBRARY_PATH); OUT/logs receives
-# one log (and JSON) per run, packed into OUT/gpu-measure.tgz at the end (the device tool
-# brings back 8 files). Parts: tests bench paper tiny kernels scaling (default: all, in
-# that order). Measured with it: README "CUDA backend".
+# BIN holds the programs (test_cuda_parity_test, test_cuda_trainer_test, bench_cuda,
+# train_bench: none links an I/O library; lib/ beside them is put on LD_LIBRARY_PATH; see
+# docs/gpu-notes.md); one log (and JSON) per run is packed into OUT/gpu-measure.tgz at the
+# end, alone in OUT (the device tool brings back 8 files). Parts: tests bench paper tiny
+# kernels scaling (default: all, in that order). Measured with it: README "CUDA backend".
 set -uo pipefail
 BIN=${1:?usage: gpu-measure.sh BIN OUT [parts...]}
 OUT=${2:?usage: gpu-measure.sh BIN OUT [parts...]}
@@ -16,7 +16,7 @@ parts=("$@")
 [ ${#parts[@]} -gt 0 ] || parts=(tests bench paper tiny kernels scaling)
 LOGS="$OUT/logs"
 mkdir -p "$LOGS"
-trap 'tar -C "$OUT" -czf "$OUT/gpu-measure.tgz" logs' EXIT
+trap 'tar -C "$OUT" -czf "$OUT/gpu-measure.tgz" logs && rm -rf "$LOGS"' EXIT
 export LD_LIBRARY_PATH="$BIN/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader | tee "$LOGS/machine.txt"
 echo "cpu cores: $(nproc)" | tee -a "$LOGS/machine.txt"
