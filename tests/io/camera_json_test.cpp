@@ -1,7 +1,6 @@
 // cam.json reading/writing: exact round trip, defaults, and one clear error per kind of
 // malformed file (naming the file and the key).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -9,17 +8,12 @@
 
 #include "core/error.h"
 #include "io/camera_json.h"
+#include "support/data_test_util.h"
 #include "support/expect_error.h"
 
 using namespace haha;
 
 namespace {
-
-std::string tmp_dir() {
-  const auto d = std::filesystem::temp_directory_path() / ("haha_camjson_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(d);
-  return d.string();
-}
 
 const char* kGood = R"({"width": 640, "height": 480,
   "K": [[500, 0, 320.5], [0, 505, 240.25], [0, 0, 1]],
@@ -59,7 +53,9 @@ TEST(CameraJson, ParsesTheDocumentedFormat) {
   EXPECT_EQ(parse_camera_json(edit("640", "640.0"), "cam.json").width, 640);  // integral float
 }
 
-TEST(CameraJson, WriteReadRoundTripIsExact) {
+using CameraJsonFiles = haha::testutil::TempDirTest;  // removes its folder afterwards
+
+TEST_F(CameraJsonFiles, WriteReadRoundTripIsExact) {
   Camera c;
   c.width = 543;
   c.height = 321;
@@ -83,9 +79,9 @@ TEST(CameraJson, WriteReadRoundTripIsExact) {
   c.t = Vec3f(0.123456789f, -1e-5f, 2.5f);
   c.near_plane = 0.05f;
   c.far_plane = 12.5f;
-  const std::string path = tmp_dir() + "/cam.json";
-  write_camera_json(path, c);
-  const Camera d = read_camera_json(path);
+  const std::string file = path("cam.json");
+  write_camera_json(file, c);
+  const Camera d = read_camera_json(file);
   EXPECT_EQ(d.width, c.width);
   EXPECT_EQ(d.height, c.height);
   EXPECT_EQ(d.fx, c.fx);
@@ -135,7 +131,7 @@ TEST(CameraJson, RotationToleranceIsAsDocumented) {
   EXPECT_THROW(parse_camera_json(edit("[1, 0, 0, 0.1]", "[1.0001, 0, 0, 0.1]"), "cam.json"), Error);
 }
 
-TEST(CameraJson, FileErrorsAndAtomicWrite) {
+TEST_F(CameraJsonFiles, FileErrorsAndAtomicWrite) {
   try {
     read_camera_json("/nonexistent/dir/cam.json");
     FAIL();
@@ -143,21 +139,21 @@ TEST(CameraJson, FileErrorsAndAtomicWrite) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/cam.json: cannot open"), std::string::npos);
   }
   // Writing an invalid camera fails, names the file and leaves the existing file untouched.
-  const std::string path = tmp_dir() + "/keep.json";
+  const std::string file = path("keep.json");
   Camera good = parse_camera_json(kGood, "x");
-  write_camera_json(path, good);
+  write_camera_json(file, good);
   Camera bad = good;
   bad.fx = 0;
   try {
-    write_camera_json(path, bad);
+    write_camera_json(file, bad);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind(path + ": K:", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind(file + ": K:", 0), 0u) << e.what();
   }
   bad = good;
   bad.t.x = NAN;
-  EXPECT_THROW(write_camera_json(path, bad), Error);
-  EXPECT_EQ(read_camera_json(path).fx, 500.0f);
-  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(path).parent_path()))
+  EXPECT_THROW(write_camera_json(file, bad), Error);
+  EXPECT_EQ(read_camera_json(file).fx, 500.0f);
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(file).parent_path()))
     EXPECT_EQ(entry.path().string().find(".tmp-"), std::string::npos) << "leftover " << entry.path();
 }
