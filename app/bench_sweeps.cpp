@@ -433,22 +433,13 @@ std::vector<RenderTiming> sweep_render_speed(const Avatar& filtered, const Avata
 
 std::vector<StageRow> stage_table(const Avatar& filtered, const Avatar& stage1, const std::array<double, 3>& stage_seconds,
                                   const BenchEval& ev) {
-  struct V {
-    const char* name;
-    const Avatar* a;
-    bool mesh, gaussians;
-  };
-  const V vs[] = {{"mesh only", &filtered, true, false},
-                  {"full Gaussians", &stage1, false, true},
-                  {"naive merge", &stage1, true, true},
-                  {"HAHA filtered", &filtered, true, true}};
   EvalReport r;  // only for its attribution of training time to variants
   r.stage_seconds = stage_seconds;
   std::vector<StageRow> out;
-  for (size_t i = 0; i < 4; ++i) {
+  for (const EvalVariant& v : paper_variants(filtered, stage1)) {
     StageRow row;
-    row.name = vs[i].name;
-    row.q = evaluate_quality(*vs[i].a, ev, vs[i].mesh, vs[i].gaussians);
+    row.name = v.name;
+    row.q = evaluate_quality(*v.avatar, ev, v.mesh, v.gaussians);
     r.variants.emplace_back();
     out.push_back(row);
   }

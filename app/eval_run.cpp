@@ -66,11 +66,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
       if (k == k0 && v != v0) r.switches.push_back(k + "=" + v);
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
-  const EvalVariant variants[] = {{"mesh only", &filtered, true, false},
-                                  {"full Gaussians", &full, false, true},
-                                  {"naive merge", &full, true, true},
-                                  {"HAHA filtered", &filtered, true, true}};
-  for (const EvalVariant& v : variants) {
+  for (const EvalVariant& v : paper_variants(filtered, full)) {
     r.variants.push_back(evaluate_variant(v, frames, opt));
     if (o.print_table)
       std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)\n", v.name.c_str(), r.variants.back().psnr,

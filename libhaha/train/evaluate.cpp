@@ -24,6 +24,13 @@ bool finite_all(const std::vector<float>& v) {
 
 }  // namespace
 
+std::vector<EvalVariant> paper_variants(const Avatar& filtered, const Avatar& stage1) {
+  return {{"mesh only", &filtered, true, false},
+          {"full Gaussians", &stage1, false, true},
+          {"naive merge", &stage1, true, true},
+          {"HAHA filtered", &filtered, true, true}};
+}
+
 int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
   int64_t b = 0;
   if (gaussians) b += int64_t(a.gaussians.size()) * (56 + 4);

@@ -23,6 +23,11 @@ struct EvalVariant {
   bool gaussians = true;         // Gaussian layer (occluded by the mesh when both)
 };
 
+// The paper's stage table, in its order: mesh only (the final avatar's texture), full
+// Gaussians (stage 1), naive merge (stage 1's Gaussians over the texture: stages 1 + 2),
+// HAHA filtered (all three stages). Both avatars must outlive the list.
+std::vector<EvalVariant> paper_variants(const Avatar& filtered, const Avatar& stage1);
+
 struct EvalOptions {
   int tto_steps = 100;             // test-time pose optimisation steps (0 = off)
   double lr_pose = 3e-3;           // global orient, body pose, transl

@@ -295,9 +295,8 @@ int run(const Options& o) {
     EvalOptions opt;  // `haha eval`'s defaults on a black background, without its pose optimisation
     opt.tto_steps = 0;
     opt.premultiplied = resolve_premultiplied(cfg.premultiplied, true);
-    const EvalVariant variants[] = {{"mesh only", &filtered, true, false},
-                                    {"full Gaussians", &full, false, true},
-                                    {"HAHA filtered", &filtered, true, true}};
+    std::vector<EvalVariant> variants = paper_variants(filtered, full);
+    variants.erase(variants.begin() + 2);  // the naive merge: not needed for timing runs
     std::printf("\nevaluation: %zu test frames (novel poses), CPU, no test-time pose optimisation\n", test.size());
     std::printf("%-14s %8s %8s %10s %10s\n", "variant", "PSNR", "SSIM", "Gaussians", "ms/frame");
     for (const EvalVariant& v : variants) {
