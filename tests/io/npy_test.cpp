@@ -118,6 +118,7 @@ TEST(Npy, ZipMemberClaimingMoreThanItsBytesCanHoldIsRefused) {
   std::memcpy(&bytes[cd + 24], &claim, 4);
   std::ofstream(p, std::ios::binary) << bytes;
   expect_error([&] { Npz::read(p); }, p, "claims 3000000000 bytes");
+  std::filesystem::remove(p);
 }
 
 TEST(Npy, UnsupportedDtypeIsListedButNotDecoded) {
