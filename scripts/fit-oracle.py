@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Where the avatar gap of `haha fit-video` comes from: train and evaluate the fitted
+dataset with some of its parts replaced by the truth (docs/fit-video.md, "What the gap is
+made of").
+
+    /usr/bin/python3 scripts/fit-oracle.py OUT NAME PART... [--haha build/cli/haha]
+                                           [--train "key=value ..."] [--eval "..."]
+
+OUT: a scripts/measure-fit-video.sh output (OUT/fit, OUT/fit_eval, OUT/synth). Makes
+OUT/oracle_NAME/{train,eval}: OUT/fit and OUT/fit_eval with PART... taken from the true fits
+(OUT/synth's smplx_true or smplx), trains the tiny preset on the first with the same
+settings as measure-fit-video.sh and evaluates on the second, then prints the HAHA and
+full-Gaussian rows. PART:
+  orient      the global orient (turned into the fit's camera: the truth's camera rotation
+              times its orient; translation stays fitted)
+  body        the 21 body joints
+  hands       both hands and the jaw
+  betas       the shape
+  camera      the true camera, and with it the true orient and transl as they are (use with
+              every pose part: the fitted transl belongs to the fitted camera)
+  transl      the translation (only meaningful with camera)
+  masks       the true masks of the training frames (instead of the keypoint tool's)
+  images      the true (PNG, lossless) images of the training frames
+A pose PART may end in @train or @test: only those frames take the truth. Needs numpy.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+POSE_PARTS = {'orient': ['global_orient'], 'body': ['body_pose'],
+              'hands': ['left_hand_pose', 'right_hand_pose', 'jaw_pose'], 'betas': ['betas'],
+              'transl': ['transl']}
+FILE_PARTS = {'masks': ('masks', 'mask'), 'images': ('images', 'image')}
+
+
+def rodrigues(v):
+    th = np.linalg.norm(v)
+    if th < 1e-12:
+        return np.eye(3)
+    k = v / th
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+
+
+def log_rotation(R):
+    th = np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))
+    if th < 1e-9:
+        return np.zeros(3)
+    if th > np.pi - 1e-4:  # the axis from the symmetric part
+        w, V = np.linalg.eigh((R + np.eye(3)) / 2)
+        return V[:, np.argmax(w)] * th
+    return th / (2 * np.sin(th)) * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+
+
+def die(msg):
+    sys.stderr.write('haha: error: %s\n' % msg)
+    sys.exit(1)
+
+
+def main(argv):
+    opts = {'--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
+            '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
+    pos = []
+    i = 0
+    while i < len(argv):
+        if argv[i] in opts:
+            if i + 1 >= len(argv):
+                die('%s: needs a value' % argv[i])
+            opts[argv[i]] = argv[i + 1]
+            i += 2
+        elif argv[i] in ('-h', '--help'):
+            print(__doc__)
+            return
+        else:
+            pos.append(argv[i])
+            i += 1
+    if len(pos) < 3:
+        die('usage: fit-oracle.py OUT NAME PART... (see --help)')
+    out, name, parts = pos[0], pos[1], pos[2:]
+    for sub in ('fit', 'fit_eval', 'synth'):
+        if not os.path.isfile(os.path.join(out, sub, 'dataset.json')):
+            die('%s: not a measure-fit-video.sh output (no %s/dataset.json)' % (out, sub))
+    keys, only, files, camera = [], {}, [], False
+    for p in parts:
+        base, _, split = p.partition('@')
+        if split not in ('', 'train', 'test'):
+            die('%s: the split after @ must be train or test' % p)
+        if base == 'camera':
+            camera = True
+        elif base in FILE_PARTS:
+            files.append(base)
+        elif base in POSE_PARTS:
+            for k in POSE_PARTS[base]:
+                keys.append(k)
+                if split:
+                    only[k] = split
+        else:
+            die('%s: unknown part (orient body hands betas camera transl masks images)' % p)
+
+    synth = json.load(open(os.path.join(out, 'synth', 'dataset.json')))
+    truth = np.load(os.path.join(out, 'synth', synth.get('smplx_true') or synth['smplx']))
+    R_cam = np.array(synth['camera']['world_to_camera'])[:3, :3]
+    frames = json.load(open(os.path.join(out, 'fit', 'dataset.json')))['frames']
+    fitted = dict(np.load(os.path.join(out, 'fit', 'smplx', 'params.npz')))
+    for k in keys:
+        rows = []
+        for n, f in enumerate(frames):
+            i = f['source_index']  # decoded frame i of the video is synth frame i
+            if only.get(k, f['split']) != f['split']:
+                rows.append(fitted[k][n])
+            elif k == 'global_orient' and not camera:
+                rows.append(log_rotation(R_cam @ rodrigues(truth[k][i].astype(np.float64))))
+            else:
+                rows.append(truth[k][i].reshape(fitted[k][n].shape))
+        fitted[k] = np.array(rows, np.float32)
+
+    base = os.path.join(out, 'oracle_' + name)
+    for sub, src in (('train', 'fit'), ('eval', 'fit_eval')):
+        d = os.path.join(base, sub)
+        shutil.rmtree(d, ignore_errors=True)
+        shutil.copytree(os.path.join(out, src), d, ignore=shutil.ignore_patterns('work'))
+        np.savez(os.path.join(d, 'smplx', 'params.npz'), **fitted)
+        for part in files:
+            folder, field = FILE_PARTS[part]
+            for f in frames:
+                shutil.copyfile(os.path.join(out, 'synth', folder, '%06d.png' % f['source_index']),
+                                os.path.join(d, f[field]))
+        if camera:
+            meta = json.load(open(os.path.join(d, 'dataset.json')))
+            meta['camera'] = synth['camera']
+            json.dump(meta, open(os.path.join(d, 'dataset.json'), 'w'), indent=1)
+
+    haha, run = opts['--haha'], os.path.join(base, 'run')
+    env = dict(os.environ, OMP_WAIT_POLICY=os.environ.get('OMP_WAIT_POLICY', 'passive'))
+    with open(os.path.join(base, 'train.log'), 'w') as log:
+        subprocess.run([haha, 'train', '--data', os.path.join(base, 'train'), '--model',
+                        os.path.join(out, 'synth', 'body_model.npz'), '--out', run, '--preset', 'tiny']
+                       + opts['--train'].split(), stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
+    table = subprocess.run([haha, 'eval', '--run', run, '--data', os.path.join(base, 'eval')] + opts['--eval'].split(),
+                           capture_output=True, text=True, env=env, check=True).stdout
+    open(os.path.join(base, 'eval.txt'), 'w').write(table)
+    rows = [line.strip() for line in table.splitlines() if line.strip().startswith(('HAHA filtered', 'full Gaussians'))]
+    print('%s (%s): %s' % (name, ' '.join(parts), ' | '.join(rows[:2])))
+
+
+if __name__ == '__main__':
+    main(sys.argv[1:])
