@@ -31,29 +31,13 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rotation import log_rotation, rodrigues  # noqa: E402
+
 POSE_PARTS = {'orient': ['global_orient'], 'body': ['body_pose'],
               'hands': ['left_hand_pose', 'right_hand_pose', 'jaw_pose'], 'betas': ['betas'],
               'transl': ['transl']}
 FILE_PARTS = {'masks': ('masks', 'mask'), 'images': ('images', 'image')}
-
-
-def rodrigues(v):
-    th = np.linalg.norm(v)
-    if th < 1e-12:
-        return np.eye(3)
-    k = v / th
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
-
-
-def log_rotation(R):
-    th = np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))
-    if th < 1e-9:
-        return np.zeros(3)
-    if th > np.pi - 1e-4:  # the axis from the symmetric part
-        w, V = np.linalg.eigh((R + np.eye(3)) / 2)
-        return V[:, np.argmax(w)] * th
-    return th / (2 * np.sin(th)) * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
 
 
 def die(msg):

@@ -16,14 +16,8 @@ import sys
 
 import numpy as np
 
-
-def rodrigues(v):
-    th = np.linalg.norm(v)
-    if th < 1e-12:
-        return np.eye(3)
-    k = v / th
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rotation import rodrigues  # noqa: E402
 
 
 def dataset(path):
