@@ -4,12 +4,12 @@ dataset with some of its parts replaced by the truth (docs/fit-video.md, "What t
 made of").
 
     /usr/bin/python3 scripts/fit-oracle.py OUT NAME PART... [--haha build/cli/haha]
-                                           [--train "key=value ..."] [--eval "..."]
+                           [--preset tiny|paper] [--train "key=value ..."] [--eval "..."]
 
 OUT: a scripts/measure-fit-video.sh output (OUT/fit, OUT/fit_eval, OUT/synth). Makes
 OUT/oracle_NAME/{train,eval}: OUT/fit and OUT/fit_eval with PART... taken from the true fits
-(OUT/synth's smplx_true or smplx), trains the tiny preset on the first with the same
-settings as measure-fit-video.sh and evaluates on the second, then prints the HAHA and
+(OUT/synth's smplx_true or smplx), trains the tiny preset (--preset) on the first with the
+same settings as measure-fit-video.sh and evaluates on the second, then prints the HAHA and
 full-Gaussian rows. PART:
   orient      the global orient (turned into the fit's camera: the truth's camera rotation
               times its orient; translation stays fitted)
@@ -47,7 +47,7 @@ def die(msg):
 
 def main(argv):
     opts = {'--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
-            '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
+            '--preset': 'tiny', '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
     pos = []
     i = 0
     while i < len(argv):
@@ -122,7 +122,7 @@ def main(argv):
     env = dict(os.environ, OMP_WAIT_POLICY=os.environ.get('OMP_WAIT_POLICY', 'passive'))
     with open(os.path.join(base, 'train.log'), 'w') as log:
         subprocess.run([haha, 'train', '--data', os.path.join(base, 'train'), '--model',
-                        os.path.join(out, 'synth', 'body_model.npz'), '--out', run, '--preset', 'tiny']
+                        os.path.join(out, 'synth', 'body_model.npz'), '--out', run, '--preset', opts['--preset']]
                        + opts['--train'].split(), stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
     table = subprocess.run([haha, 'eval', '--run', run, '--data', os.path.join(base, 'eval')] + opts['--eval'].split(),
                            capture_output=True, text=True, env=env, check=True).stdout

@@ -24,7 +24,7 @@ out="" size=512 frames=40 test_frames=10 seed=0 fps=30 backdrop=black haha="$rep
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     --size|--frames|--test-frames|--seed|--fps|--backdrop|--haha)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in

@@ -3,8 +3,8 @@
 # one trained from the exact fits, on the same held-out frames?
 #
 #   scripts/measure-fit-video.sh OUT [--held-out novel|every:N] [--backdrop black|room]
-#        [--haha build/cli/haha] [--fit "fit-video options"] [--train "key=value ..."]
-#        [--eval "--antialias --tto-steps 100"]
+#        [--haha build/cli/haha] [--fit "fit-video options"] [--preset tiny|paper]
+#        [--train "key=value ..."] [--eval "--antialias --tto-steps 100"]
 #
 # 1. scripts/make-test-video.sh OUT (the embedded subject at 512 px: 40 frames of a turn and
 #    10 test frames in novel poses, with the exact fits in OUT/synth; --backdrop: behind the
@@ -17,9 +17,9 @@
 #      every:N: OUT/video.mp4 --test-every N: every Nth frame of the turn, as a video's
 #        held-out frames usually are.
 #    The exact dataset gets the fitted one's split (OUT/synth_split);
-# 3. trains the tiny preset on both datasets with the same settings (--train; default the
-#    README's recommendation for imperfect fits) and evaluates both on the test split with
-#    the same options (--eval). The fitted avatar is evaluated with its fitted test poses
+# 3. trains the tiny preset (--preset) on both datasets with the same settings (--train;
+#    default the README's recommendation for imperfect fits) and evaluates both on the test
+#    split with the same options (--eval). The fitted avatar is evaluated with its fitted test poses
 #    (and test-time pose optimisation) against the same ground-truth pixels as the exact one:
 #    OUT/fit_eval is OUT/fit with the test frames' images and masks replaced by the synth
 #    PNGs (the video frames are H.264-decoded and the tool's masks are not exact);
@@ -27,15 +27,15 @@
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 out="" haha="$repo/build/cli/haha"
-held_out="novel" backdrop="black" fit_opts="" train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
+held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
-    --held-out|--backdrop|--haha|--fit|--train|--eval)
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    --held-out|--backdrop|--preset|--haha|--fit|--train|--eval)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in
-        --held-out) held_out="$2" ;; --backdrop) backdrop="$2" ;; --haha) haha="$2" ;; --fit) fit_opts="$2" ;;
+        --held-out) held_out="$2" ;; --backdrop) backdrop="$2" ;; --preset) preset="$2" ;; --haha) haha="$2" ;; --fit) fit_opts="$2" ;;
         --train) train_keys="$2" ;; --eval) eval_opts="$2" ;;
       esac
       shift 2 ;;
@@ -96,8 +96,8 @@ mv "$out/synth_split/dataset.json.tmp" "$out/synth_split/dataset.json"
 # shellcheck disable=SC2086  # the settings are word lists on purpose
 for which in exact fit; do
   data="$out/synth_split"; [ "$which" = fit ] && data="$out/fit"
-  stamp 4/5 "train ($which fits): haha train --preset tiny $train_keys"
-  "$haha" train --data "$data" --model "$out/synth/body_model.npz" --out "$out/run_$which" --preset tiny $train_keys
+  stamp 4/5 "train ($which fits): haha train --preset $preset $train_keys"
+  "$haha" train --data "$data" --model "$out/synth/body_model.npz" --out "$out/run_$which" --preset "$preset" $train_keys
 done
 for which in exact fit; do
   data="$out/synth_split"; [ "$which" = fit ] && data="$out/fit_eval"
