@@ -40,7 +40,9 @@ TEST(Device, NamesAndErrors) {
     EXPECT_EQ(parse_device("auto"), Device::cuda);
     EXPECT_FALSE(gpu_description().empty());
   }
-  if (!cuda_backend_built()) EXPECT_EQ(parse_device("auto"), Device::cpu);
+  if (!cuda_backend_built()) {
+    EXPECT_EQ(parse_device("auto"), Device::cpu);
+  }
 }
 
 }  // namespace
