@@ -19,8 +19,9 @@
 #    The exact dataset gets the fitted one's split (OUT/synth_split);
 # 3. trains the tiny preset (--preset) on both datasets with the same settings (--train;
 #    default the README's recommendation for imperfect fits) and evaluates both on the test
-#    split with the same options (--eval). The fitted avatar is evaluated with its fitted test poses
-#    (and test-time pose optimisation) against the same ground-truth pixels as the exact one:
+#    split with the same options (--eval). The fitted avatar is evaluated with its fitted
+#    test poses (and test-time pose optimisation) against the same ground-truth pixels as
+#    the exact one:
 #    OUT/fit_eval is OUT/fit with the test frames' images and masks replaced by the synth
 #    PNGs (the video frames are H.264-decoded and the tool's masks are not exact);
 # 4. prints both eval tables and the two HAHA rows. Needs python3 (the JSON edit of step 3).
@@ -31,12 +32,12 @@ held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
     --held-out|--backdrop|--preset|--haha|--fit|--train|--eval)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in
-        --held-out) held_out="$2" ;; --backdrop) backdrop="$2" ;; --preset) preset="$2" ;; --haha) haha="$2" ;; --fit) fit_opts="$2" ;;
-        --train) train_keys="$2" ;; --eval) eval_opts="$2" ;;
+        --held-out) held_out="$2" ;; --backdrop) backdrop="$2" ;; --preset) preset="$2" ;;
+        --haha) haha="$2" ;; --fit) fit_opts="$2" ;; --train) train_keys="$2" ;; --eval) eval_opts="$2" ;;
       esac
       shift 2 ;;
     -*) die "$1: unknown option" ;;
