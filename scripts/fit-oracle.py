@@ -14,6 +14,8 @@ full-Gaussian rows. PART:
   orient      the global orient (turned into the fit's camera: the truth's camera rotation
               times its orient; translation stays fitted)
   body        the 21 body joints
+  arms        of those only the shoulders and elbows (legs: hips, knees, ankles, feet;
+              torso: spine, neck, collars, head; the other joints stay fitted)
   hands       both hands and the jaw
   betas       the shape
   camera      the true camera, and with it the true orient and transl as they are (use with
@@ -38,6 +40,8 @@ POSE_PARTS = {'orient': ['global_orient'], 'body': ['body_pose'],
               'hands': ['left_hand_pose', 'right_hand_pose', 'jaw_pose'], 'betas': ['betas'],
               'transl': ['transl']}
 FILE_PARTS = {'masks': ('masks', 'mask'), 'images': ('images', 'image')}
+# Groups of body_pose's 21 joints (SMPL-X order without the pelvis).
+JOINT_PARTS = {'arms': [15, 16, 17, 18], 'legs': [0, 1, 3, 4, 6, 7, 9, 10], 'torso': [2, 5, 8, 11, 12, 13, 14]}
 
 
 def die(msg):
@@ -68,7 +72,7 @@ def main(argv):
     for sub in ('fit', 'fit_eval', 'synth'):
         if not os.path.isfile(os.path.join(out, sub, 'dataset.json')):
             die('%s: not a measure-fit-video.sh output (no %s/dataset.json)' % (out, sub))
-    keys, only, files, camera = [], {}, [], False
+    keys, only, files, camera, joints = [], {}, [], False, {}
     for p in parts:
         base, _, split = p.partition('@')
         if split not in ('', 'train', 'test'):
@@ -77,13 +81,18 @@ def main(argv):
             camera = True
         elif base in FILE_PARTS:
             files.append(base)
+        elif base in JOINT_PARTS:
+            for j in JOINT_PARTS[base]:
+                joints[j] = split
         elif base in POSE_PARTS:
             for k in POSE_PARTS[base]:
                 keys.append(k)
                 if split:
                     only[k] = split
         else:
-            die('%s: unknown part (orient body hands betas camera transl masks images)' % p)
+            die('%s: unknown part (orient body arms legs torso hands betas camera transl masks images)' % p)
+    if joints and 'body_pose' in keys:
+        die('body already holds every joint: give it or arms / legs / torso')
 
     synth = json.load(open(os.path.join(out, 'synth', 'dataset.json')))
     truth = np.load(os.path.join(out, 'synth', synth.get('smplx_true') or synth['smplx']))
@@ -101,6 +110,10 @@ def main(argv):
             else:
                 rows.append(truth[k][i].reshape(fitted[k][n].shape))
         fitted[k] = np.array(rows, np.float32)
+    for n, f in enumerate(frames):
+        for j, split in joints.items():
+            if split in ('', f['split']):
+                fitted['body_pose'][n][3 * j:3 * j + 3] = truth['body_pose'][f['source_index']][3 * j:3 * j + 3]
 
     base = os.path.join(out, 'oracle_' + name)
     for sub, src in (('train', 'fit'), ('eval', 'fit_eval')):
