@@ -35,6 +35,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rotation import log_rotation, rodrigues  # noqa: E402
+from script_args import die, parse_args  # noqa: E402
 
 POSE_PARTS = {'orient': ['global_orient'], 'body': ['body_pose'],
               'hands': ['left_hand_pose', 'right_hand_pose', 'jaw_pose'], 'betas': ['betas'],
@@ -44,28 +45,10 @@ FILE_PARTS = {'masks': ('masks', 'mask'), 'images': ('images', 'image')}
 JOINT_PARTS = {'arms': [15, 16, 17, 18], 'legs': [0, 1, 3, 4, 6, 7, 9, 10], 'torso': [2, 5, 8, 11, 12, 13, 14]}
 
 
-def die(msg):
-    sys.stderr.write('haha: error: %s\n' % msg)
-    sys.exit(1)
-
-
 def main(argv):
     opts = {'--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
             '--preset': 'tiny', '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
-    pos = []
-    i = 0
-    while i < len(argv):
-        if argv[i] in opts:
-            if i + 1 >= len(argv):
-                die('%s: needs a value' % argv[i])
-            opts[argv[i]] = argv[i + 1]
-            i += 2
-        elif argv[i] in ('-h', '--help'):
-            print(__doc__)
-            return
-        else:
-            pos.append(argv[i])
-            i += 1
+    pos = parse_args(argv, opts, __doc__)
     if len(pos) < 3:
         die('usage: fit-oracle.py OUT NAME PART... (see --help)')
     out, name, parts = pos[0], pos[1], pos[2:]

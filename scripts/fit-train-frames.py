@@ -27,11 +27,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rotation import log_rotation, rodrigues  # noqa: E402
-
-
-def die(msg):
-    sys.stderr.write('haha: error: %s\n' % msg)
-    sys.exit(1)
+from script_args import die, parse_args  # noqa: E402
 
 
 def joint_errors(out, body_pose):
@@ -83,20 +79,7 @@ def make(out, which, target):
 def main(argv):
     opts = {'--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
             '--eval': '--antialias --tto-steps 0'}
-    pos = []
-    i = 0
-    while i < len(argv):
-        if argv[i] in opts:
-            if i + 1 >= len(argv):
-                die('%s: needs a value' % argv[i])
-            opts[argv[i]] = argv[i + 1]
-            i += 2
-        elif argv[i] in ('-h', '--help'):
-            print(__doc__)
-            return
-        else:
-            pos.append(argv[i])
-            i += 1
+    pos = parse_args(argv, opts, __doc__)
     if len(pos) != 1:
         die('usage: fit-train-frames.py OUT (see --help)')
     out = pos[0]
