@@ -168,8 +168,8 @@ std::string eval_report_markdown(const EvalReport& r) {
   return s;
 }
 
-void write_eval_report(const EvalReport& r) {
-  const RunDir run(r.run_dir);
+void write_eval_report(const EvalReport& r, const std::string& dir) {
+  const RunDir run(dir.empty() ? r.run_dir : dir);
   write_text_file(run.report_json(), eval_report_json(r));
   write_text_file(run.report_md(), eval_report_markdown(r));
 }

@@ -38,8 +38,8 @@ EvalChecks eval_checks(const EvalReport& r);
 
 std::string eval_report_json(const EvalReport& r);
 std::string eval_report_markdown(const EvalReport& r);
-// report.json + report.md into r.run_dir (atomic).
-void write_eval_report(const EvalReport& r);
+// report.json + report.md into dir, or r.run_dir when dir is empty (atomic).
+void write_eval_report(const EvalReport& r, const std::string& dir = "");
 
 // Rows of [ground truth | HAHA render | error x4 | Gaussian layer | mesh only | full
 // Gaussians] for the frames whose images were kept. Written atomically as PNG.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "app/lpips_weights.h"
@@ -19,6 +20,10 @@ EvalReport run_eval(const EvalRunOptions& o) {
   if (o.background != "black" && o.background != "white")
     fail("--background", "expected black or white, got '" + o.background + "'");
   const Split split = parse_split(o.split, "--split");
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!o.out_dir.empty() && fs::exists(o.out_dir, ec) && !fs::is_directory(o.out_dir, ec))
+    fail(o.out_dir, "--out: exists and is not a folder");
   const RunDir run(o.run_dir);
   const RunInfo info = read_trained_run_info(run, "haha eval");
   const std::string data = o.data_dir.empty() ? info.data_path : o.data_dir;
@@ -75,8 +80,10 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.regions_full = gaussians_per_region(full.body, full.gaussians);
   r.regions_filtered = gaussians_per_region(filtered.body, filtered.gaussians);
   r.eval_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  write_eval_report(r);
-  write_eval_contact_sheet(run.eval_sheet(), r, frames[0].camera.width, frames[0].camera.height);
+  const RunDir dest(o.out_dir.empty() ? o.run_dir : o.out_dir);
+  if (!fs::create_directories(dest.dir, ec) && ec) fail(dest.dir, "--out: cannot create the folder: " + ec.message());
+  write_eval_report(r, dest.dir);
+  write_eval_contact_sheet(dest.eval_sheet(), r, frames[0].camera.width, frames[0].camera.height);
   return r;
 }
 

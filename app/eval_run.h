@@ -1,6 +1,7 @@
 // `haha eval`: the paper's stage table for a trained run (train/evaluate.h): mesh only /
 // full Gaussians / naive merge / HAHA filtered on held-out frames, written to
-// RUN/report.json, RUN/report.md and RUN/eval_sheet.png (app/eval_report.h).
+// RUN/report.json, RUN/report.md and RUN/eval_sheet.png (app/eval_report.h), or into another
+// folder (out_dir: evaluating a run on other data keeps the run's own report).
 #pragma once
 
 #include <string>
@@ -12,6 +13,7 @@ namespace haha {
 struct EvalRunOptions {
   std::string run_dir;
   std::string data_dir;              // empty: the run's dataset
+  std::string out_dir;               // where the report files go; empty: the run directory
   std::string split = "test";        // train | test
   std::string background = "black";  // black | white
   int tto_steps = -1;                // test-time pose optimisation steps; < 0: the run's

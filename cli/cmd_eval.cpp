@@ -1,5 +1,5 @@
 // `haha eval`: the paper's stage table for a trained run (app/eval_run.h), written to
-// RUN/report.json, RUN/report.md and RUN/eval_sheet.png.
+// RUN/report.json, RUN/report.md and RUN/eval_sheet.png, or into --out.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -17,6 +17,7 @@ HAHA_COMMAND(eval) {
   auto* sub = app.add_subcommand("eval", "Evaluate a trained run: mesh only / full Gaussians / naive merge / HAHA");
   sub->add_option("--run", r.run_dir, "run directory (haha train --out)")->required();
   sub->add_option("--data", r.data_dir, "dataset directory (default: the run's)");
+  sub->add_option("--out", r.out_dir, "folder for report.json, report.md and eval_sheet.png (default: the run directory)");
   sub->add_option("--split", r.split, "train or test")->capture_default_str();
   sub->add_option("--background", r.background, "black or white")->capture_default_str();
   sub->add_option("--tto-steps", r.tto_steps, "test-time pose optimisation steps (default: the run's; 0 = off)");
@@ -33,6 +34,7 @@ HAHA_COMMAND(eval) {
       std::printf("%s", haha::eval_report_json(rep).c_str());
     else
       std::printf("%s\nwrote %s/report.md, report.json, eval_sheet.png (%.1f s)\n",
-                  haha::eval_report_markdown(rep).c_str(), rep.run_dir.c_str(), rep.eval_seconds);
+                  haha::eval_report_markdown(rep).c_str(),
+                  (a->run.out_dir.empty() ? rep.run_dir : a->run.out_dir).c_str(), rep.eval_seconds);
   });
 }

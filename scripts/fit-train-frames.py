@@ -7,10 +7,11 @@ with the poses stage 1 refined for those frames (RUN/smplx_refined.npz), against
     /usr/bin/python3 scripts/fit-train-frames.py OUT [--haha build/cli/haha] [--eval "..."]
 
 OUT: a measure-fit-video.sh output (OUT/run_fit, OUT/run_exact, OUT/fit, OUT/synth_split,
-OUT/synth). Makes OUT/train_frames_{exact,fit,own}: the run (a copy) and its dataset with the training frames
+OUT/synth). Makes OUT/train_frames_{exact,fit,own}: the run's dataset with the training frames
 as the test split, their parameters replaced by the refined ones and (for the fitted run)
 their images and masks by the synth PNGs; evaluates each run there with --eval (default
-`--antialias --tto-steps 0`: the refined poses as they are) and prints the HAHA rows.
+`--antialias --tto-steps 0`: the refined poses as they are; `haha eval --out` puts the
+report in OUT/train_frames_*/eval, so the runs keep their own) and prints the HAHA rows.
 Also `own`: the fitted avatar against its own training targets (the video frames and the
 keypoint tool's masks). First it prints how far the training frames' poses are from the
 truth (the mean rotation between fitted and true local joint rotations over the 21 body
@@ -100,9 +101,8 @@ def main(argv):
                                 ('fit', 'fit', 'fitted avatar, true pixels'),
                                 ('fit', 'own', 'fitted avatar, its own targets')):
         d = make(out, which, target)
-        run = os.path.join(d, 'run')  # a copy: eval writes its report into the run folder
-        shutil.copytree(os.path.join(out, 'run_' + which), run, ignore=shutil.ignore_patterns('checkpoint*'))
-        table = subprocess.run([opts['--haha'], 'eval', '--run', run, '--data', d]
+        table = subprocess.run([opts['--haha'], 'eval', '--run', os.path.join(out, 'run_' + which), '--data', d,
+                                '--out', os.path.join(d, 'eval')]
                                + opts['--eval'].split(), capture_output=True, text=True, env=env, check=True).stdout
         open(os.path.join(d, 'eval.txt'), 'w').write(table)
         rows = [line.strip() for line in table.splitlines() if line.strip().startswith('HAHA filtered')]

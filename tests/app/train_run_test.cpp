@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "app/eval_run.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
 #include "app/train_run.h"
@@ -202,6 +203,36 @@ TEST_F(TrainRunTest, RunWritesItsOutputsAndResumeReachesTheSameState) {
   r.overrides = {"s1.steps=9"};
   expect_error([&] { run_training(r); }, {"--resume", "overrides are not allowed"});
   expect_error([&] { run_training(options(data, path("run"))); }, {"a run already exists here", "--resume"});
+}
+
+TEST_F(TrainRunTest, EvalWritesItsReportIntoOutAndLeavesTheRunsOwn) {
+  const std::string data = make_dataset();
+  ASSERT_TRUE(run_training(options(data, path("run"))).finished);
+  EvalRunOptions e;
+  e.run_dir = path("run");
+  e.tto_steps = 0;
+  e.print_table = false;
+  e.sheet_frames = 1;
+  const EvalReport own = run_eval(e);
+  ASSERT_TRUE(fs::exists(path("run/report.md")));
+  const std::string before = testutil::read_text(path("run/report.md"));
+
+  // Evaluated on its training frames into another folder (created): the run's report stays.
+  e.split = "train";
+  e.out_dir = path("elsewhere/eval");
+  const EvalReport other = run_eval(e);
+  for (const char* f : {"report.json", "report.md", "eval_sheet.png"})
+    EXPECT_TRUE(fs::exists(path("elsewhere/eval/") + f)) << f;
+  EXPECT_EQ(testutil::read_text(path("run/report.md")), before);
+  EXPECT_NE(testutil::read_text(path("elsewhere/eval/report.md")), before);
+  EXPECT_EQ(other.split, "train");
+  EXPECT_EQ(other.frame_names.size(), 6u);
+  EXPECT_EQ(own.frame_names.size(), 2u);
+
+  // An --out that is a file: one error naming it, before any work.
+  testutil::write_text(path("a_file"), "x");
+  e.out_dir = path("a_file");
+  expect_error([&] { run_eval(e); }, {path("a_file"), "not a folder"});
 }
 
 TEST_F(TrainRunTest, BadFramesAreReportedBeforeTraining) {
