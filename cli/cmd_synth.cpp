@@ -37,6 +37,8 @@ HAHA_COMMAND(synth) {
   sub->add_option("--view-shading", a->o.view_shading,
                   "strength in [0, 2] of the view-dependent sheen and highlight on hair and garments (a texture "
                   "cannot hold it; default: 0 for subject 1, 0.5 for subject 2)");
+  sub->add_flag("--still-arms", a->o.still_arms,
+                "hold the arms in one A-pose over the turn (as PeopleSnapshot-style captures do) instead of swinging them");
   sub->add_option("--seed", a->o.seed, "subject colours, motion details, fit noise, procedural body")
       ->capture_default_str();
   sub->add_option("--fit-noise", a->fit_noise,

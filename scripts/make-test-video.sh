@@ -4,13 +4,16 @@
 # H.264-encoded with ffmpeg so the keypoint tool sees what a user gives it.
 #
 #   scripts/make-test-video.sh OUT [--size 512] [--frames 40] [--test-frames 10] [--seed 0]
-#                                  [--fps 30] [--backdrop black|room] [--haha build/cli/haha]
+#                                  [--fps 30] [--backdrop black|room] [--still-arms]
+#                                  [--haha build/cli/haha]
 #
 # --backdrop: what stands behind the subject in the videos. black (default): haha synth's
 # frames as they are (premultiplied on black; black leggings on black are a worst case for
 # any person mask); room: a static procedural room (a shaded wall, a tiled floor behind the
 # feet; OUT/backdrop.png) composited behind the subject with the true soft masks, as a
 # tripod video of a person would show it. OUT/synth/ stays on black either way.
+# --still-arms: the subject holds its arms in one A-pose while it turns (`haha synth
+# --still-arms`, as PeopleSnapshot-style captures do) instead of swinging them.
 #
 # Writes OUT/synth/ (the dataset with the exact fits and body_model.npz: the reference to
 # compare the fit with and to train the exact-fit avatar on), OUT/video.mp4 (the training
@@ -20,11 +23,12 @@
 # from haha synth; one line `haha: error: ...` and exit 1 when ffmpeg or haha is missing.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
-out="" size=512 frames=40 test_frames=10 seed=0 fps=30 backdrop=black haha="$repo/build/cli/haha"
+out="" size=512 frames=40 test_frames=10 seed=0 fps=30 backdrop=black haha="$repo/build/cli/haha" motion=()
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    --still-arms) motion=(--still-arms); shift ;;
     --size|--frames|--test-frames|--seed|--fps|--backdrop|--haha)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in
@@ -47,7 +51,8 @@ command -v ffmpeg >/dev/null 2>&1 || die "ffmpeg: not installed (apt-get install
 [ -x "$haha" ] || die "$haha: not built (cmake --build build --target haha, or give --haha)"
 
 mkdir -p "$out"
-"$haha" synth --out "$out/synth" --size "$size" --frames "$frames" --test-frames "$test_frames" --seed "$seed"
+"$haha" synth --out "$out/synth" --size "$size" --frames "$frames" --test-frames "$test_frames" --seed "$seed" \
+  "${motion[@]}"
 if [ "$backdrop" = room ]; then
   # A wall with soft folds and fine stripes above a two-tone tiled floor (RGB 0..255 per pixel).
   wall="sin(X/41)*sin(Y/67)" stripes="10*sin(X/7.3)"

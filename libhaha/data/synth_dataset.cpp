@@ -80,7 +80,7 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
                   static_cast<unsigned long long>(opt.seed), opt.fit_noise.pose, opt.fit_noise.transl,
                   scene.view_shading);
   DatasetWriter writer(stage.string(), opt.size, opt.size, 30.0, "neutral",
-                       std::string(src) + "; body: " + (body.source.empty() ? std::string("?") : body.source));
+                       std::string(src) + (opt.still_arms ? ", arms still" : "") + "; body: " + (body.source.empty() ? std::string("?") : body.source));
   writer.set_premultiplied(1);  // rendered on black, box-filtered coverage as the mask
 
   const std::vector<int> sheet_train = spread(opt.train_frames, opt.sheet_train);

@@ -47,7 +47,7 @@ SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
   sc.subject = make_synth_subject(body, so);
   sc.texture_size = so.texture_size;
   sc.view_shading = opt.view_shading < 0 ? default_view_shading(opt.subject) : opt.view_shading;
-  const SynthMotion motion = make_synth_motion(body, sc.subject, opt.train_frames, opt.test_frames, opt.seed);
+  const SynthMotion motion = make_synth_motion(body, sc.subject, opt.train_frames, opt.test_frames, opt.seed, opt.still_arms);
   sc.truth = motion.train;
   sc.truth.insert(sc.truth.end(), motion.test.begin(), motion.test.end());
   sc.fits = perturb_fits(sc.truth, opt.fit_noise, opt.seed);

@@ -102,7 +102,7 @@ void ground(const Lbs<float>& lbs, std::vector<float>& scratch, double floor_y, 
 }  // namespace
 
 SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject, int train_frames, int test_frames,
-                              uint64_t seed) {
+                              uint64_t seed, bool still_arms) {
   if (train_frames < 1 || test_frames < 0) fail("synth motion", "need at least one training frame");
   if (subject.rest_joints.size() != size_t(kNumJoints) * 3) fail("synth motion", "subject has no rest joints");
   std::mt19937_64 rng(seed * 0xA24BAED4963EE407ull + 0x5EED5EEDull);
@@ -123,11 +123,14 @@ SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject
     for (int j : {3, 6, 9}) set_joint(p, j, Ry(0.06 * wave(2, 0)) * Rz(0.04 * wave(3, 1)));
     set_joint(p, 12, Rx(0.06 * wave(2, 2)));
     set_joint(p, 15, Ry(0.2 * wave(3, 3)) * Rx(0.05 * wave(2, 4)));
-    const double down_l = 1.15 + 0.22 * wave(4, 5), down_r = 1.15 + 0.22 * std::sin(tau * 4 * s + ph[5] + 1.3);
-    const double swing = 0.45 * wave(3, 6);
+    // Still arms: the mean of each moving value below.
+    const double arm = still_arms ? 0.0 : 1.0;
+    const double down_l = 1.15 + arm * 0.22 * wave(4, 5), down_r = 1.15 + arm * 0.22 * std::sin(tau * 4 * s + ph[5] + 1.3);
+    const double swing = arm * 0.45 * wave(3, 6);
     set_joint(p, 16, Rx(-swing) * Rz(-down_l));
     set_joint(p, 17, Rx(swing) * Rz(down_r));
-    const double el = 0.2 + 0.45 * (0.5 + 0.5 * wave(3, 7)), er = 0.2 + 0.45 * (0.5 + 0.5 * std::sin(tau * 3 * s + ph[7] + 2));
+    const double el = 0.2 + 0.45 * (0.5 + arm * 0.5 * wave(3, 7)),
+                 er = 0.2 + 0.45 * (0.5 + arm * 0.5 * std::sin(tau * 3 * s + ph[7] + 2));
     set_joint(p, 18, Ry(-el));
     set_joint(p, 19, Ry(er));
     set_joint(p, 20, Rz(-0.2 * wave(4, 8)));

@@ -107,10 +107,13 @@ struct SynthMotion {
   std::vector<SmplxParams> train, test;  // true parameters; feet on the rest floor
 };
 
-// Frames are deterministic for (body, counts, seed). Frame i of train turns by
-// 360 * i / n degrees about the vertical axis (frame 0 faces the camera).
+// Frames are deterministic for (body, counts, seed, still_arms). Frame i of train turns by
+// 360 * i / n degrees about the vertical axis (frame 0 faces the camera). The arms swing
+// forward and back, rise and fall and bend at the elbows as it turns; still_arms holds
+// them in one A-pose over the turn instead (the capture protocol of PeopleSnapshot-style
+// datasets), the rest of the motion unchanged.
 SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject, int train_frames, int test_frames,
-                              uint64_t seed);
+                              uint64_t seed, bool still_arms = false);
 
 // Largest geodesic angle (radians) between the two poses' local rotations over the
 // articulated joints 1..54 (global orientation excluded: it is the viewpoint).
@@ -199,6 +202,7 @@ struct SynthOptions {
   int sheet_train = 40, sheet_test = 10;  // frames shown on the contact sheet (evenly spaced)
   int subject = 1;            // SynthSubjectOptions::subject
   double view_shading = -1;   // strength; < 0: the subject's default (0 for 1, 0.5 for 2)
+  bool still_arms = false;    // make_synth_motion's still_arms
 };
 
 // The view-shading strength a subject gets when none is given.

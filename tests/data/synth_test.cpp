@@ -329,6 +329,29 @@ TEST(SynthMotion, TrainingTurnsOnceAroundTheVerticalAxis) {
   }
 }
 
+TEST(SynthMotion, StillArmsHoldOneArmPoseAndLeaveTheRestOfTheMotion) {
+  const SynthMotion swing = make_synth_motion(low_body(), low_subject(), 12, 4, 0);
+  const SynthMotion still = make_synth_motion(low_body(), low_subject(), 12, 4, 0, /*still_arms=*/true);
+  auto value = [](const SmplxParams& p, int joint, int c) { return p.pose[size_t(3 * joint + c)]; };
+  for (int joint : {16, 17, 18, 19}) {  // shoulders, elbows
+    double moved = 0;
+    for (int i = 1; i < 12; ++i)
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(value(still.train[size_t(i)], joint, c), value(still.train[0], joint, c)) << joint << " frame " << i;
+        moved = std::max(moved, double(std::abs(value(swing.train[size_t(i)], joint, c) - value(swing.train[0], joint, c))));
+      }
+    EXPECT_GT(moved, 0.1) << "joint " << joint << " does not move in the swinging turn";
+  }
+  for (int i = 0; i < 12; ++i)
+    for (int joint = 0; joint < kNumJoints; ++joint) {
+      if (joint >= 16 && joint <= 19) continue;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(value(still.train[size_t(i)], joint, c), value(swing.train[size_t(i)], joint, c)) << joint;
+    }
+  for (size_t i = 0; i < still.test.size(); ++i)  // the novel test poses are the same
+    EXPECT_EQ(still.test[i].pose, swing.test[i].pose);
+}
+
 TEST(SynthMotion, EveryTestPoseIsNovel) {
   for (uint64_t seed : {0u, 1u, 7u})
     for (auto [ntrain, ntest] : {std::pair{40, 10}, std::pair{300, 60}}) {
