@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "app/video_fit_facing.h"
 #include "app/video_fit_frames.h"
 #include "app/video_fit_world_init.h"
 #include "body/rotation.h"
@@ -298,12 +299,31 @@ VideoFitResult fit_video(const BodyModel& body, const std::vector<VideoFitInputF
     std::fflush(stdout);
   };
 
+  // Face points seen from behind (app/video_fit_facing.h): their visibility scaled by the
+  // current fit's facing before each stage.
+  std::vector<std::vector<double>> vis0;
+  for (const VideoFitTargets& t : sel.targets) vis0.push_back(t.vis);
+  auto fade_hidden_face = [&] {
+    if (!opt.fade_hidden_face) return;
+    const float* shared = params.data() + size_t(N) * kVideoFitFrameParams;
+    for (int f = 0; f < N; ++f) {
+      std::vector<Vec3d> cp;
+      for (const Vec3<float>& p : obj.camera_points(params.data() + size_t(f) * kVideoFitFrameParams, shared))
+        cp.emplace_back(p.x, p.y, p.z);
+      const std::vector<double> w = face_point_factors(points, cp);
+      for (size_t k = 0; k < w.size(); ++k) sel.targets[size_t(f)].vis[k] = vis0[size_t(f)][k] * w[k];
+    }
+  };
+
   obj.set_point_weights(torso_w);
   unwrap_orients(sel.targets, params.data());
+  fade_hidden_face();
   run_stage(1, "global", opt.iters_global, {&orient, &transl}, {});
   obj.set_point_weights(all_w);
   unwrap_orients(sel.targets, params.data());
+  fade_hidden_face();
   run_stage(2, "body", opt.iters_body, {&orient, &pose, &transl, &betas}, {});
+  fade_hidden_face();
   if (any_mask) run_stage(3, "silhouette", opt.iters_silhouette, {&orient, &pose, &transl, &betas}, silhouette_term);
 
   // Results and the report.

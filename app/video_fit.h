@@ -43,6 +43,8 @@ struct VideoFitOptions {
   VideoFitWeights weights;
   bool use_world = true;  // BlazePose's world points (when the keypoints have them) seed the pose and
                           // feed the bone-direction term; false: ignored (the 2D-only fit)
+  bool fade_hidden_face = true;  // the nose, eyes and mouth weighted by how far the fitted head
+                                 // faces the camera (app/video_fit_facing.h); false: as BlazePose says
   int num_betas = 10;
   int iters_global = 60, iters_body = 300, iters_silhouette = 40;
   double lr_orient = 0.03, lr_body = 0.03, lr_transl = 0.02, lr_betas = 0.03;  // Adam, per stage

@@ -67,15 +67,22 @@ void VideoFitObjective<T>::pose_frame(const T* q, const T* betas, std::vector<T>
 }
 
 template <class T>
-void VideoFitObjective<T>::project(const T* q, const T* betas, std::vector<T>& u, std::vector<T>& v) const {
+std::vector<Vec3<T>> VideoFitObjective<T>::camera_points(const T* q, const T* betas) const {
   std::vector<T> pose, verts, joints;
   pose_frame(q, betas, pose, verts, joints, nullptr);
+  std::vector<Vec3<T>> c;
+  for (const VideoFitPoint& p : points_)
+    c.push_back(cam_.to_camera(Vec3<T>::load(p.joint >= 0 ? &joints[size_t(3 * p.joint)] : &verts[size_t(3 * p.vertex)])));
+  return c;
+}
+
+template <class T>
+void VideoFitObjective<T>::project(const T* q, const T* betas, std::vector<T>& u, std::vector<T>& v) const {
+  const std::vector<Vec3<T>> cp = camera_points(q, betas);
   u.resize(points_.size());
   v.resize(points_.size());
   for (size_t k = 0; k < points_.size(); ++k) {
-    const VideoFitPoint& p = points_[k];
-    const T* x = p.joint >= 0 ? &joints[size_t(3 * p.joint)] : &verts[size_t(3 * p.vertex)];
-    Vec3<T> c = cam_.to_camera(Vec3<T>::load(x));
+    Vec3<T> c = cp[k];
     c.z = std::max(c.z, T(kVideoFitMinDepth));
     const Vec2<T> px = cam_.project(c);
     u[k] = px.x;

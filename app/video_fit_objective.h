@@ -102,6 +102,8 @@ class VideoFitObjective {
 
   // The projected points (pixels; the depth clamped as in E) of one frame's parameters.
   void project(const T* frame_params, const T* betas, std::vector<T>& u, std::vector<T>& v) const;
+  // The points in camera space (metres, camera axes) of one frame's parameters.
+  std::vector<Vec3<T>> camera_points(const T* frame_params, const T* betas) const;
 
   // Frame parameters as SmplxParams (betas from the shared block).
   static SmplxParams to_params(const T* frame_params, const T* betas, int num_betas);
