@@ -31,17 +31,13 @@ from rotation import log_rotation, rodrigues  # noqa: E402
 from script_args import die, parse_args  # noqa: E402
 
 
-def joint_errors(out, body_pose):
-    """Mean local rotation error (degrees) of body_pose (the training frames of OUT/fit, in
-    order) against the truth: all 21 joints, left shoulder, right shoulder."""
-    synth = json.load(open(os.path.join(out, 'synth', 'dataset.json')))
-    truth = np.load(os.path.join(out, 'synth', synth.get('smplx_true') or synth['smplx']))['body_pose']
-    frames = json.load(open(os.path.join(out, 'fit', 'dataset.json')))['frames']
-    src = [f['source_index'] for f in frames if f['split'] == 'train']
-    err = np.zeros((len(src), 21))
-    for n, i in enumerate(src):
+def joint_errors(truth, body_pose):
+    """Mean local rotation error (degrees) of body_pose against truth (both the training
+    frames' body poses, in order): all 21 joints, left shoulder, right shoulder."""
+    err = np.zeros((len(truth), 21))
+    for n in range(len(truth)):
         for j in range(21):
-            a = rodrigues(truth[i][3 * j:3 * j + 3].astype(np.float64))
+            a = rodrigues(truth[n][3 * j:3 * j + 3].astype(np.float64))
             b = rodrigues(np.asarray(body_pose[n]).reshape(-1)[3 * j:3 * j + 3].astype(np.float64))
             err[n, j] = np.degrees(np.linalg.norm(log_rotation(a.T @ b)))
     return err.mean(), err[:, 15].mean(), err[:, 16].mean()
@@ -91,11 +87,14 @@ def main(argv):
     fit_meta = json.load(open(os.path.join(out, 'fit', 'dataset.json')))
     fit_pose = np.load(os.path.join(out, 'fit', fit_meta['smplx']))['body_pose']
     train = [n for n, f in enumerate(fit_meta['frames']) if f['split'] == 'train']
+    synth = json.load(open(os.path.join(out, 'synth', 'dataset.json')))
+    truth = np.load(os.path.join(out, 'synth', synth.get('smplx_true') or synth['smplx']))['body_pose']
+    truth = truth[[fit_meta['frames'][n]['source_index'] for n in train]]  # frame i of the video is synth frame i
     for what, pose in (('the fit', fit_pose[train]),
                        ('fitted run, refined', np.load(os.path.join(out, 'run_fit', 'smplx_refined.npz'))['body_pose']),
                        ('exact run, refined', np.load(os.path.join(out, 'run_exact', 'smplx_refined.npz'))['body_pose'])):
         print('joint rotation error against the truth, training frames, %s: %.1f deg (shoulders %.1f / %.1f)'
-              % ((what,) + joint_errors(out, pose)))
+              % ((what,) + joint_errors(truth, pose)))
     env = dict(os.environ, OMP_WAIT_POLICY=os.environ.get('OMP_WAIT_POLICY', 'passive'))
     for which, target, what in (('exact', 'exact', 'exact avatar, true pixels'),
                                 ('fit', 'fit', 'fitted avatar, true pixels'),
