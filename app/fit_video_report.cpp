@@ -78,6 +78,7 @@ std::string fit_report_json(const FitVideoSummary& s) {
   j["train"] = s.train;
   j["test"] = s.test;
   j["camera"] = {{"fx", s.camera.fx}, {"fy", s.camera.fy}, {"cx", s.camera.cx}, {"cy", s.camera.cy}};
+  j["focal_source"] = s.focal_source;
   j["mean_reprojection_px"] = number_or_null(s.mean_reprojection_px);
   j["mean_silhouette_iou"] = number_or_null(s.mean_silhouette_iou);
   if (!s.truth.empty()) {
@@ -122,6 +123,8 @@ std::string fit_report_table(const FitVideoSummary& s) {
                                    " mm (PA-MPJPE), orientation " + fixed(s.mean_orient_error_deg, 1) +
                                    " deg, against " + s.truth);
   }
+  if (!s.focal_source.empty())
+    out.insert(out.size() - 1, "focal length " + fixed(s.camera.fx, 1) + " px: " + s.focal_source + "\n");
   std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), "frame", "source", "kept",
                 "dataset", "reproj", "IoU", truth ? "  PA mm  rot deg" : "", "reason");
   out += line;

@@ -36,6 +36,7 @@ struct FitVideoSummary {
   int width = 0, height = 0;
   double fps = 0;             // of the dataset (after --fps and the --frames step)
   Camera camera;
+  std::string focal_source;   // where the focal length came from (app/fit_video_focal.h)
   std::vector<FitVideoFrameRow> frames;  // one per frame given to the fit
   double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
   std::string truth;               // --truth DIR ("" = none): the joint error is reported

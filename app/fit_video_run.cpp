@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "app/fit_video_focal.h"
 #include "app/fit_video_input.h"
 #include "app/fit_video_truth.h"
 #include "app/keypoint_tool.h"
@@ -56,6 +57,10 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (!(o.fps >= 0) || !std::isfinite(o.fps) || o.fps > 1000) fail("--fps", "must be in [0, 1000] (0: every frame)");
   if (!(o.focal_px >= 0) || !std::isfinite(o.focal_px) || o.focal_px > 1e6) fail("--focal", "must be a positive number of pixels");
   if (!(o.fov_deg > 1 && o.fov_deg < 179)) fail("--fov", "must be in (1, 179) degrees");
+  if (o.focal_35mm != 0 && !(o.focal_35mm >= kFocal35mmMin && o.focal_35mm <= kFocal35mmMax))
+    fail("--focal-35mm", "must be a 35 mm-equivalent focal length in [" + std::to_string(int(kFocal35mmMin)) + ", " +
+                             std::to_string(int(kFocal35mmMax)) + "] mm");
+  if (o.focal_px > 0 && o.focal_35mm > 0) fail("--focal-35mm", "give either --focal or --focal-35mm, not both");
   if (!(o.robust_smoothness >= 0 && o.robust_smoothness <= 10))
     fail("--robust-smoothness", "must be in [0, 10] radians (0: quadratic smoothness)");
   if (o.test_every < 0 || o.test_every == 1) fail("--test-every", "must be 0 (no test frames) or >= 2");
@@ -110,6 +115,15 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   say("[1/4] " + std::to_string(n) + " frames of " + std::to_string(in.width) + "x" + std::to_string(in.height) + " (" +
       std::to_string(in.decoded) + (in.is_video ? " decoded)" : " found)"));
   if (!opt.truth.empty()) check_truth_frames(truth, in.decoded);
+  RecordedFocal recorded;  // read only when nothing given beats it
+  if (opt.focal_px <= 0 && opt.focal_35mm <= 0 && !opt.fov_given && n > 0)
+    recorded = in.is_video ? video_recorded_focal(opt.input)
+                           : image_recorded_focal((fs::path(opt.input) / in.names[0]).string());
+  const FocalChoice focal =
+      choose_focal(opt.focal_px, opt.focal_35mm, opt.fov_deg, opt.fov_given, recorded, in.width, in.height);
+  char focal_line[64];
+  std::snprintf(focal_line, sizeof focal_line, "[1/4] focal length %.1f px: ", focal.focal_px);
+  say(focal_line + focal.source);
 
   // (2) keypoints and masks
   say("[2/4] keypoints and masks (" + tool + ")");
@@ -143,8 +157,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   // (3) the fit
   say("[3/4] SMPL-X fit");
   VideoFitOptions vo;
-  vo.focal_px = opt.focal_px;
-  vo.fov_deg = opt.fov_deg;
+  vo.focal_px = focal.focal_px;
   vo.weights.smooth_sigma = opt.robust_smoothness;
   vo.progress = opt.progress;
   vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
@@ -162,6 +175,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   s.height = in.height;
   s.fps = in.fps / range.step;
   s.camera = r.camera;
+  s.focal_source = focal.source;
   s.frames.resize(size_t(n));
   for (int i = 0; i < n; ++i) {
     FitVideoFrameRow& row = s.frames[size_t(i)];

@@ -37,7 +37,9 @@ struct FitVideoOptions {
   double fps = 0;             // > 0: video resampled to this rate (ffmpeg fps filter); a folder's rate
                               // (default 30); 0: every decoded frame at the video's own rate
   double focal_px = 0;        // VideoFitOptions::focal_px
-  double fov_deg = 55;        // VideoFitOptions::fov_deg (used when focal_px is 0)
+  double focal_35mm = 0;      // > 0: the lens's 35 mm-equivalent focal length, mm (app/fit_video_focal.h)
+  double fov_deg = 55;        // horizontal field of view, degrees: given (fov_given) or the last resort's guess
+  bool fov_given = false;     // --fov given: it wins over the input's recorded focal length
   double robust_smoothness = 0;  // VideoFitWeights::smooth_sigma (rad; 0: quadratic)
   std::string frames;         // --frames A:B:S (first, last exclusive, step) after decoding; "" = all
   int test_every = 0;         // every Nth kept frame goes to the "test" split; 0: none

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "app/fit_video_focal.h"
 #include "app/video_fit_facing.h"
 #include "app/video_fit_frames.h"
 #include "app/video_fit_world_init.h"
@@ -48,7 +49,7 @@ void check_input(const std::vector<VideoFitInputFrame>& frames) {
 Camera make_camera(int width, int height, const VideoFitOptions& opt) {
   if (!(opt.focal_px >= 0) || !(opt.fov_deg > 0 && opt.fov_deg < 180) || !std::isfinite(opt.focal_px))
     fail("video fit", "focal must be > 0 or the field of view in (0, 180) degrees");
-  const double f = opt.focal_px > 0 ? opt.focal_px : 0.5 * width / std::tan(0.5 * opt.fov_deg * kPi / 180.0);
+  const double f = opt.focal_px > 0 ? opt.focal_px : focal_px_from_fov(opt.fov_deg, width);
   Camera c;
   c.width = width;
   c.height = height;

@@ -22,9 +22,15 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--fps", a->o.fps, "resample the video to this rate (0: every frame; a folder's rate, default 30)")
       ->capture_default_str();
   auto* focal = sub->add_option("--focal", a->o.focal_px, "focal length in pixels (static camera)");
-  sub->add_option("--fov", a->o.fov_deg, "horizontal field of view guess in degrees, when --focal is not given")
-      ->capture_default_str()
-      ->excludes(focal);
+  auto* focal_35mm = sub->add_option("--focal-35mm", a->o.focal_35mm,
+                                     "the lens's 35 mm-equivalent focal length in mm (a phone's spec sheet: e.g. 26)")
+                         ->excludes(focal);
+  auto* fov = sub->add_option("--fov", a->o.fov_deg,
+                              "horizontal field of view in degrees (default: the focal length the video or the "
+                              "images record, else this guess)")
+                  ->capture_default_str()
+                  ->excludes(focal)
+                  ->excludes(focal_35mm);
   sub->add_option("--frames", a->o.frames, "A:B:S: frames A (first) to B (exclusive; empty = end) every S, after decoding");
   sub->add_option("--test-every", a->o.test_every, "every Nth kept frame goes to the test split (0: none)")
       ->capture_default_str();
@@ -41,7 +47,8 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--keypoint-tool", a->o.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
   sub->add_option("--model", a->body,
                   "SMPL-X model .npz to fit (default: the procedural body, also written to OUT/body_model.npz)");
-  sub->callback([a] {
+  sub->callback([a, fov] {
+    a->o.fov_given = fov->count() > 0;
     haha::install_interrupt_handler();  // Ctrl-C: `haha: error: interrupted`, nothing left beside OUT
     haha::validate_fit_video_options(a->o);
     const haha::BodyModel body = haha::synth_body(a->body, haha::BodyResolution::full, 0);

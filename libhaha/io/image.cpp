@@ -112,6 +112,7 @@ ImageInfo read_image_info(const std::string& path) {
   info.height = in->spec().height;
   info.channels = in->spec().nchannels;
   info.format = in->format_name();
+  info.focal_35mm = std::max(0, in->spec().get_int_attribute("Exif:FocalLengthIn35mmFilm", 0));
   in->close();
   return info;
 }

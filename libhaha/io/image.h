@@ -13,6 +13,8 @@ namespace haha {
 struct ImageInfo {
   int width = 0, height = 0, channels = 0;
   std::string format;  // OIIO's format name, e.g. "png", "tiff"
+  double focal_35mm = 0;  // the camera's 35 mm-equivalent focal length from EXIF
+                          // (FocalLengthIn35mmFilm), millimetres; 0: not recorded
 };
 
 // Opens the file and reads its header only. Throws haha::Error "path: cannot read image: ..."

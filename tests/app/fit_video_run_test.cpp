@@ -360,6 +360,15 @@ TEST_F(FitVideoRunTest, ReportNamesEveryFrameAndWhyItWasDropped) {
   EXPECT_EQ(sheet_label(s.frames[0]), "frame 0 2.5PX IOU0.80");
 }
 
+TEST_F(FitVideoRunTest, ReportSaysWhereTheFocalLengthCameFrom) {
+  FitVideoSummary s = two_frame_summary();
+  s.camera.fx = s.camera.fy = 700;
+  s.focal_source = "26.0 mm (35 mm equivalent) from EXIF FocalLengthIn35mmFilm of a.jpg";
+  EXPECT_EQ(nlohmann::json::parse(fit_report_json(s))["focal_source"], s.focal_source);
+  const std::string table = fit_report_table(s);
+  EXPECT_NE(table.find("\nfocal length 700.0 px: " + s.focal_source + "\n"), std::string::npos) << table;
+}
+
 TEST_F(FitVideoRunTest, ReportWithTruthAddsTheJointErrorColumnAndMean) {
   FitVideoSummary s = two_frame_summary();
   EXPECT_EQ(fit_report_table(s).find("PA"), std::string::npos);  // no --truth: no column
