@@ -36,7 +36,7 @@ struct FitVideoOptions {
   std::string out;            // the dataset directory written
   double fps = 0;             // > 0: video resampled to this rate (ffmpeg fps filter); a folder's rate
                               // (default 30); 0: every decoded frame at the video's own rate
-  double focal_px = 0;        // VideoFitOptions::focal_px
+  double focal_px = 0;        // > 0: focal length in pixels (beats every other source; app/fit_video_focal.h)
   double focal_35mm = 0;      // > 0: the lens's 35 mm-equivalent focal length, mm (app/fit_video_focal.h)
   double fov_deg = 55;        // horizontal field of view, degrees: given (fov_given) or the last resort's guess
   bool fov_given = false;     // --fov given: it wins over the input's recorded focal length
