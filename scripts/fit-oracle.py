@@ -28,12 +28,12 @@ A pose PART may end in @train or @test: only those frames take the truth. Needs 
 import json
 import os
 import shutil
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from oracle_run import TRAIN_EVAL_OPTIONS, train_and_evaluate  # noqa: E402
 from rotation import log_rotation, rodrigues  # noqa: E402
 from script_args import die, parse_args  # noqa: E402
 
@@ -46,8 +46,7 @@ JOINT_PARTS = {'arms': [15, 16, 17, 18], 'legs': [0, 1, 3, 4, 6, 7, 9, 10], 'tor
 
 
 def main(argv):
-    opts = {'--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
-            '--preset': 'tiny', '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
+    opts = dict(TRAIN_EVAL_OPTIONS)
     pos = parse_args(argv, opts, __doc__)
     if len(pos) < 3:
         die('usage: fit-oracle.py OUT NAME PART... (see --help)')
@@ -114,15 +113,8 @@ def main(argv):
             meta['camera'] = synth['camera']
             json.dump(meta, open(os.path.join(d, 'dataset.json'), 'w'), indent=1)
 
-    haha, run = opts['--haha'], os.path.join(base, 'run')
-    env = dict(os.environ, OMP_WAIT_POLICY=os.environ.get('OMP_WAIT_POLICY', 'passive'))
-    with open(os.path.join(base, 'train.log'), 'w') as log:
-        subprocess.run([haha, 'train', '--data', os.path.join(base, 'train'), '--model',
-                        os.path.join(out, 'synth', 'body_model.npz'), '--out', run, '--preset', opts['--preset']]
-                       + opts['--train'].split(), stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
-    table = subprocess.run([haha, 'eval', '--run', run, '--data', os.path.join(base, 'eval')] + opts['--eval'].split(),
-                           capture_output=True, text=True, env=env, check=True).stdout
-    open(os.path.join(base, 'eval.txt'), 'w').write(table)
+    table = train_and_evaluate(opts, os.path.join(base, 'train'), os.path.join(base, 'eval'),
+                               os.path.join(out, 'synth', 'body_model.npz'), base)
     rows = [line.strip() for line in table.splitlines() if line.strip().startswith(('HAHA filtered', 'full Gaussians'))]
     print('%s (%s): %s' % (name, ' '.join(parts), ' | '.join(rows[:2])))
 

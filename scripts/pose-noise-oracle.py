@@ -19,12 +19,12 @@ script's exact and fitted rows. Needs numpy.
 import json
 import os
 import shutil
-import subprocess
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from oracle_run import TRAIN_EVAL_OPTIONS, train_and_evaluate  # noqa: E402
 from rotation import log_rotation, rodrigues  # noqa: E402
 from script_args import die, parse_args  # noqa: E402
 
@@ -44,9 +44,7 @@ def noise(rng, frames, joints, mean_deg, smooth):
 
 
 def main(argv):
-    opts = {'--smooth': '0', '--seed': '0', '--parts': 'body_pose',
-            '--haha': os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'build', 'cli', 'haha'),
-            '--preset': 'tiny', '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
+    opts = dict(TRAIN_EVAL_OPTIONS, **{'--smooth': '0', '--seed': '0', '--parts': 'body_pose'})
     pos = parse_args(argv, opts, __doc__)
     if len(pos) != 3:
         die('usage: pose-noise-oracle.py OUT NAME DEG (see --help)')
@@ -81,15 +79,7 @@ def main(argv):
         params[key] = rot.reshape(params[key].shape).astype(np.float32)
     np.savez(os.path.join(data, meta['smplx']), **params)
 
-    haha, run = opts['--haha'], os.path.join(base, 'run')
-    env = dict(os.environ, OMP_WAIT_POLICY=os.environ.get('OMP_WAIT_POLICY', 'passive'))
-    with open(os.path.join(base, 'train.log'), 'w') as log:
-        subprocess.run([haha, 'train', '--data', data, '--model', os.path.join(out, 'synth', 'body_model.npz'),
-                        '--out', run, '--preset', opts['--preset']] + opts['--train'].split(),
-                       stdout=log, stderr=subprocess.STDOUT, env=env, check=True)
-    table = subprocess.run([haha, 'eval', '--run', run, '--data', data] + opts['--eval'].split(),
-                           capture_output=True, text=True, env=env, check=True).stdout
-    open(os.path.join(base, 'eval.txt'), 'w').write(table)
+    table = train_and_evaluate(opts, data, data, os.path.join(out, 'synth', 'body_model.npz'), base)
     rows = [line.strip() for line in table.splitlines() if line.strip().startswith('HAHA filtered')]
     print('%s (%s, %.2f deg mean added, smooth %g frames, seed %d): %s'
           % (name, opts['--parts'], np.mean(added), smooth, seed, rows[0] if rows else 'no HAHA row'))

@@ -144,6 +144,13 @@ function crop(img, roi, n, lo = 0, hi = 1) {
   return tf.tensor4d(out, [1, n, n, 3]);
 }
 
+// The [1, n, n, 3] crop flipped left-right (the input is disposed).
+function mirrored(input) {
+  const flipped = tf.reverse(input, 2);
+  tf.dispose(input);
+  return flipped;
+}
+
 const sigmoid = (x) => 1 / (1 + Math.exp(-x));
 const normalizeAngle = (a) => a - 2 * Math.PI * Math.floor((a + Math.PI) / (2 * Math.PI));
 
@@ -247,12 +254,7 @@ const POSE_MIRROR = (() => {
 // With mirror, the crop is flipped left-right before the model sees it and the outputs are
 // flipped back (point i of the result is the mirrored run's point POSE_MIRROR[i]).
 async function poseLandmarks(models, img, roi, mirror = false) {
-  let input = crop(img, roi, POSE);
-  if (mirror) {
-    const flipped = tf.reverse(input, 2);
-    tf.dispose(input);
-    input = flipped;
-  }
+  const input = mirror ? mirrored(crop(img, roi, POSE)) : crop(img, roi, POSE);
   const [ld, seg, world, flag] = await run(models.pose, input, ['ld_3d', 'activation_segmentation', 'world_3d', 'output_poseflag']);
   tf.dispose(input);
   const c = Math.cos(roi.angle), s = Math.sin(roi.angle);
@@ -303,12 +305,7 @@ const COCO_TO_BLAZEPOSE = [[5, 11], [6, 12], [7, 13], [8, 14], [9, 15], [10, 16]
 async function movenetLandmarks(models, img, roi) {
   const runs = [];
   for (const mirror of [false, true]) {
-    let input = crop(img, roi, MOVENET, 0, 255);
-    if (mirror) {
-      const flipped = tf.reverse(input, 2);
-      tf.dispose(input);
-      input = flipped;
-    }
+    const input = mirror ? mirrored(crop(img, roi, MOVENET, 0, 255)) : crop(img, roi, MOVENET, 0, 255);
     const asInt = tf.cast(input, 'int32');  // the model takes 0-255 integers
     tf.dispose(input);
     const [out] = await run(models.movenet, asInt, undefined);  // [1, 1, 17, (y, x, score)], 0-1
