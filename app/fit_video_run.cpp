@@ -66,6 +66,8 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (o.test_every < 0 || o.test_every == 1) fail("--test-every", "must be 0 (no test frames) or >= 2");
   if (o.test_from < 0) fail("--test-from", "must be a frame number >= 1 (0: no held-out end)");
   if (o.mask != "pose" && o.mask != "selfie") fail("--mask", "'" + o.mask + "' is neither pose nor selfie");
+  if (o.keypoints != "accurate" && o.keypoints != "fast")
+    fail("--keypoints", "'" + o.keypoints + "' is neither accurate nor fast");
   if (o.sheet_tiles < 1) fail("contact sheet", "needs at least one tile");
   parse_frame_range(o.frames);
   std::string out = o.out;
@@ -128,8 +130,8 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   // (2) keypoints and masks
   say("[2/4] keypoints and masks (" + tool + ")");
   const fs::path kp_dir = work / "keypoints";
-  run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.progress,
-                    (work / "keypoints.log").string());
+  run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.keypoints == "fast",
+                    opt.progress,                    (work / "keypoints.log").string());
   std::vector<VideoFitInputFrame> frames(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     check_interrupted();

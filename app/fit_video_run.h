@@ -47,6 +47,8 @@ struct FitVideoOptions {
                               // "test" (hold out the end of a clip); 0: none
   std::string keypoint_tool;  // tools/keypoints folder ("" = find_keypoint_tool's search)
   std::string mask = "pose";  // the tool's mask: pose | selfie
+  std::string keypoints = "accurate";  // the tool's models: accurate (BlazePose flip-averaged, limbs
+                                       // averaged with MoveNet) | fast (BlazePose once, ~1.5x faster)
   std::string truth;          // --truth DIR: a dataset with the video's true fits (app/fit_video_truth.h); "" = none
   bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
   int sheet_tiles = 40;       // frames on the contact sheet (plus the dropped ones)

@@ -16,10 +16,11 @@ std::string find_keypoint_tool(const std::string& configured = "");
 // nodejs npm), the tool's keypoints.mjs, or its node_modules (scripts/setup-keypoints.sh).
 void check_keypoint_tool(const std::string& tool_dir);
 
-// node TOOL/keypoints.mjs IN_DIR OUT_DIR --mask MASK: its progress lines go to stdout when
+// node TOOL/keypoints.mjs IN_DIR OUT_DIR --mask MASK (`fast`: also --flip off --movenet off,
+// BlazePose once per frame; docs/keypoints.md): its progress lines go to stdout when
 // `progress`, its stderr to `log_path`; a failure throws haha::Error with the tool's error
 // line.
 void run_keypoint_tool(const std::string& tool_dir, const std::string& in_dir, const std::string& out_dir,
-                       const std::string& mask_mode, bool progress, const std::string& log_path);
+                       const std::string& mask_mode, bool fast, bool progress, const std::string& log_path);
 
 }  // namespace haha

@@ -41,6 +41,10 @@ HAHA_COMMAND(fit_video) {
                   "kept frames decoded at or after frame K (before --frames) go to the test split (0: none)")
       ->capture_default_str();
   sub->add_option("--mask", a->o.mask, "person mask of the keypoint tool: pose | selfie")->capture_default_str();
+  sub->add_option("--keypoints", a->o.keypoints,
+                  "keypoint models: accurate (BlazePose flip-averaged, limbs averaged with MoveNet) | fast "
+                  "(BlazePose once per frame, ~1.5x faster, less accurate)")
+      ->capture_default_str();
   sub->add_option("--truth", a->o.truth,
                   "dataset with the video's true fits (frames in order, e.g. make-test-video.sh's synth/): "
                   "report the body-joint error after Procrustes (PA-MPJPE)");

