@@ -3,13 +3,13 @@
 # one trained from the exact fits, on the same held-out frames?
 #
 #   scripts/measure-fit-video.sh OUT [--held-out novel|every:N] [--backdrop black|room]
-#        [--still-arms] [--haha build/cli/haha] [--fit "fit-video options"] [--preset tiny|paper]
+#        [--still-arms] [--frames N] [--haha build/cli/haha] [--fit "fit-video options"] [--preset tiny|paper]
 #        [--train "key=value ..."] [--eval "--antialias --tto-steps 100"]
 #
 # 1. scripts/make-test-video.sh OUT (the embedded subject at 512 px: 40 frames of a turn and
 #    10 test frames in novel poses, with the exact fits in OUT/synth; --backdrop: behind the
 #    subject in the video, black by default; --still-arms: arms held still over the turn;
-#    see make-test-video.sh);
+#    see make-test-video.sh; --frames: the turn in N frames instead of 40, a slower turn);
 # 2. haha fit-video (one fit, --truth OUT/synth for the joint error; --fit adds options, e.g.
 #    "--focal 643.4" for a calibrated camera) on the subject's own body model, so that only
 #    the fits differ. Held-out frames:
@@ -28,18 +28,19 @@
 # 4. prints both eval tables and the two HAHA rows. Needs python3 (the JSON edit of step 3).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
-out="" haha="$repo/build/cli/haha" motion=()
+out="" haha="$repo/build/cli/haha" motion=() frames=40
 held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
     -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
     --still-arms) motion=(--still-arms); shift ;;
-    --held-out|--backdrop|--preset|--haha|--fit|--train|--eval)
+    --held-out|--backdrop|--preset|--haha|--fit|--train|--eval|--frames)
       [ $# -ge 2 ] || die "$1: needs a value"
       case "$1" in
         --held-out) held_out="$2" ;; --backdrop) backdrop="$2" ;; --preset) preset="$2" ;;
         --haha) haha="$2" ;; --fit) fit_opts="$2" ;; --train) train_keys="$2" ;; --eval) eval_opts="$2" ;;
+        --frames) frames="$2" ;;
       esac
       shift 2 ;;
     -*) die "$1: unknown option" ;;
@@ -48,7 +49,7 @@ while [ $# -gt 0 ]; do
 done
 [ -n "$out" ] || die "OUT: missing (usage: scripts/measure-fit-video.sh OUT [--held-out novel|every:N] ...)"
 case "$held_out" in
-  novel) test_frames=10 split_opts="--test-from 40" video="video_all.mp4" ;;
+  novel) test_frames=10 split_opts="--test-from $frames" video="video_all.mp4" ;;
   every:[2-9]|every:[1-9][0-9])
     test_frames=0 split_opts="--test-every ${held_out#every:}" video="video.mp4" ;;
   *) die "--held-out: '$held_out' is neither novel nor every:N (N in 2..99)" ;;
@@ -60,7 +61,7 @@ t0=$SECONDS
 stamp() { echo "measure-fit-video: [$1] $2 ($((SECONDS - t0)) s)"; }
 
 stamp 1/5 "synthetic video"
-bash "$repo/scripts/make-test-video.sh" "$out" --haha "$haha" --frames 40 --test-frames "$test_frames" \
+bash "$repo/scripts/make-test-video.sh" "$out" --haha "$haha" --frames "$frames" --test-frames "$test_frames" \
   --backdrop "$backdrop" "${motion[@]}"
 stamp 2/5 "haha fit-video"
 # shellcheck disable=SC2086  # the options are word lists on purpose
