@@ -131,7 +131,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   say("[2/4] keypoints and masks (" + tool + ")");
   const fs::path kp_dir = work / "keypoints";
   run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.keypoints == "fast",
-                    opt.progress,                    (work / "keypoints.log").string());
+                    opt.progress, (work / "keypoints.log").string());
   std::vector<VideoFitInputFrame> frames(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     check_interrupted();

@@ -50,7 +50,8 @@ void run_keypoint_tool(const std::string& tool_dir, const std::string& in_dir, c
   // exec: the shell becomes node, so a SIGTERM passed on by run_command reaches it.
   const std::string cmd = "exec node " + shell_quoted((fs::path(tool_dir) / "keypoints.mjs").string()) + " " +
                           shell_quoted(in_dir) + " " + shell_quoted(out_dir) + " --mask " + shell_quoted(mask_mode) +
-                          (fast ? " --flip off --movenet off" : "") + (progress ? "" : " > /dev/null") + " 2> " + shell_quoted(log_path);
+                          (fast ? " --flip off --movenet off" : "") + (progress ? "" : " > /dev/null") + " 2> " +
+                          shell_quoted(log_path);
   if (run_command(cmd) != 0) {
     std::string log;
     try {

