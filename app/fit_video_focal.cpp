@@ -10,6 +10,7 @@
 
 #include "app/subprocess.h"
 #include "io/image.h"
+#include "core/text.h"
 
 namespace haha {
 
@@ -18,10 +19,6 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kAppleFocalKey = "com.apple.quicktime.camera.focal_length.35mm_equivalent";
 
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return s;
-}
 
 std::string number(double v, int digits) {
   char b[32];
@@ -38,7 +35,7 @@ double focal_px_from_35mm(double mm, int width, int height) {
 double focal_px_from_fov(double fov_deg, int width) { return 0.5 * width / std::tan(0.5 * fov_deg * kPi / 180.0); }
 
 std::optional<double> parse_focal_35mm(const std::string& text) {
-  std::string t = lower(text);
+  std::string t = ascii_lower(text);
   while (!t.empty() && std::isspace((unsigned char)t.back())) t.pop_back();
   if (t.size() >= 2 && t.compare(t.size() - 2, 2, "mm") == 0) t.resize(t.size() - 2);
   while (!t.empty() && std::isspace((unsigned char)t.back())) t.pop_back();
@@ -68,7 +65,7 @@ RecordedFocal video_recorded_focal(const std::string& video) {
   while (std::getline(in, line)) {
     const size_t eq = line.find('=');
     if (eq == std::string::npos) continue;
-    std::string key = lower(line.substr(0, eq));
+    std::string key = ascii_lower(line.substr(0, eq));
     if (key.compare(0, 4, "tag:") == 0) key = key.substr(4);
     if (key != kAppleFocalKey) continue;
     r.found = true;

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/interrupt.h"
 #include "io/image.h"
+#include "core/text.h"
 
 namespace haha {
 
@@ -31,8 +32,7 @@ bool parse_count(const std::string& s, int* v) {
 }
 
 bool is_image_name(const fs::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const std::string e = ascii_lower(p.extension().string());
   return e == ".png" || e == ".jpg" || e == ".jpeg";
 }
 

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "io/camera_json.h"
 #include "io/pickle.h"
+#include "core/text.h"
 
 namespace haha {
 
@@ -226,8 +227,7 @@ std::string read_first_word(const std::string& path) {
   std::ifstream f(path);
   std::string w;
   if (f) f >> w;
-  for (char& c : w) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return w;
+  return ascii_lower(w);
 }
 
 }  // namespace readers

@@ -8,6 +8,7 @@
 #include "data/readers.h"
 #include "data/readers_common.h"
 #include "io/pickle.h"
+#include "core/text.h"
 
 namespace haha {
 
@@ -73,8 +74,7 @@ Dataset read_smplifyx(const SmplifyxOptions& opt) {
   // Images by stem, sorted by name.
   std::map<std::string, std::string> images;
   for (const auto& e : fs::directory_iterator(image_dir, ec)) {
-    std::string ext = e.path().extension().string();
-    for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    const std::string ext = ascii_lower(e.path().extension().string());
     if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") continue;
     const std::string stem = e.path().stem().string();
     if (images.count(stem)) fail(e.path().string(), "two images named '" + stem + "' (different extensions)");

@@ -14,6 +14,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text.h"
 
 namespace haha {
 namespace {
@@ -98,9 +99,7 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
 }
 
 std::string lower_extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return e;
+  return ascii_lower(std::filesystem::path(path).extension().string());
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "body/lbs.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text.h"
 
 namespace haha {
 namespace {
@@ -38,9 +39,7 @@ std::string lower_extension(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   const size_t dot = path.find_last_of('.');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext;
+  return ascii_lower(path.substr(dot));
 }
 
 void validate(const std::string& path, const ExportMesh& m, bool with_uv) {

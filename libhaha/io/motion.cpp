@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "io/npy.h"
 #include "io/smplx_params_io.h"
+#include "core/text.h"
 
 namespace haha {
 
@@ -35,8 +36,7 @@ std::array<double, 3> world_up(const Npz& z, std::array<double, 3> fallback) {
 
 std::string gender_of(const Npz& z) {
   if (!z.has_text("gender")) return {};
-  std::string g = z.text("gender");
-  for (char& c : g) c = char(std::tolower(static_cast<unsigned char>(c)));
+  const std::string g = ascii_lower(z.text("gender"));
   if (g != "male" && g != "female" && g != "neutral") fail(z.path() + ": gender", "'" + g + "' is not male, female or neutral");
   return g;
 }
