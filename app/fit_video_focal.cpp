@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <numbers>
 #include <sstream>
 
 #include "app/subprocess.h"
@@ -16,7 +17,7 @@ namespace haha {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = std::numbers::pi;
 constexpr const char* kAppleFocalKey = "com.apple.quicktime.camera.focal_length.35mm_equivalent";
 
 

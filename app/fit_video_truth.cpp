@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 
 #include "body/lbs.h"
 #include "body/rotation.h"
@@ -67,7 +68,7 @@ double body_orient_error_deg(const Camera& fit_camera, const SmplxParams& fit, c
   // atan2 of sin and cos (not acos alone): exact near 0 degrees, where acos loses digits.
   const double s = 0.5 * std::sqrt(sq(d.a[2][1] - d.a[1][2]) + sq(d.a[0][2] - d.a[2][0]) + sq(d.a[1][0] - d.a[0][1]));
   const double c = (d.a[0][0] + d.a[1][1] + d.a[2][2] - 1) / 2;
-  return std::atan2(s, c) * 180 / 3.14159265358979323846;
+  return std::atan2(s, c) * 180 / std::numbers::pi;
 }
 
 }  // namespace haha

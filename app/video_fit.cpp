@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include "app/fit_video_focal.h"
 #include "app/video_fit_facing.h"
@@ -22,7 +23,7 @@ namespace haha {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = std::numbers::pi;
 constexpr int kYawCandidates = 8;
 
 void check_input(const std::vector<VideoFitInputFrame>& frames) {

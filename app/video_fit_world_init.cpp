@@ -1,6 +1,7 @@
 #include "app/video_fit_world_init.h"
 
 #include <cmath>
+#include <numbers>
 
 #include "body/rotation.h"
 #include "io/keypoints_json.h"
@@ -9,7 +10,7 @@ namespace haha {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = std::numbers::pi;
 
 // Body axes (columns: left, up, forward) from the two hips and two shoulders.
 bool torso_frame(Vec3d lhip, Vec3d rhip, Vec3d lsh, Vec3d rsh, Mat3<double>& B) {
