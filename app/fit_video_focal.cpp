@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "app/subprocess.h"
-#include "io/image.h"
 #include "core/text.h"
+#include "io/image.h"
 
 namespace haha {
 
@@ -19,7 +19,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr const char* kAppleFocalKey = "com.apple.quicktime.camera.focal_length.35mm_equivalent";
-
 
 std::string number(double v, int digits) {
   char b[32];

@@ -13,8 +13,8 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
-#include "io/image.h"
 #include "core/text.h"
+#include "io/image.h"
 
 namespace haha {
 

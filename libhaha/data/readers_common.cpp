@@ -7,9 +7,9 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "io/camera_json.h"
 #include "io/pickle.h"
-#include "core/text.h"
 
 namespace haha {
 

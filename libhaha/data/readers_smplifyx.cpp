@@ -5,10 +5,10 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "data/readers.h"
 #include "data/readers_common.h"
 #include "io/pickle.h"
-#include "core/text.h"
 
 namespace haha {
 

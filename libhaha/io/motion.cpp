@@ -6,9 +6,9 @@
 
 #include "body/rotation.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "io/npy.h"
 #include "io/smplx_params_io.h"
-#include "core/text.h"
 
 namespace haha {
 
