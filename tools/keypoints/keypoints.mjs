@@ -4,8 +4,9 @@
 // Per image of IN_DIR (png/jpg, name order): BlazePose body (33 points, MediaPipe order,
 // plus world points; by default averaged over the crop and its mirror image, and the limb
 // joints averaged with MoveNet Thunder's), hands cropped from the body's wrist/index/pinky
-// points as MediaPipe Holistic does, and an 8-bit person mask. Writes OUT_DIR/keypoints/<stem>.json (the
-// contract in docs/keypoints.md) and OUT_DIR/masks/<stem>.png. Offline, CPU, TF.js wasm.
+// points as MediaPipe Holistic does, and an 8-bit person mask. Writes
+// OUT_DIR/keypoints/<stem>.json (the contract in docs/keypoints.md) and
+// OUT_DIR/masks/<stem>.png. Offline, CPU, TF.js wasm.
 //
 // The MediaPipe graphs (detector -> rotated ROI -> landmarks -> ROI from landmarks ->
 // landmarks again; hand ROI from pose -> hand landmarks -> ROI from hand -> again) are
