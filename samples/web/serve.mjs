@@ -1,6 +1,7 @@
 #!/usr/bin/env node
 // Tiny static server for the viewer (Node's http module only). Serves samples/web/ (the page,
-// its modules and node_modules/) and the given files under /files/, and prints the URL.
+// its modules and node_modules/), format/js/ under /format/js/ (the reader and the three.js
+// plugin the viewer is built on) and the given files under /files/, and prints the URL.
 //
 //   npm ci --prefix samples/web
 //   node samples/web/serve.mjs --avatar out/demo/avatar.glb --motion out/demo/motion_wave.npz
@@ -14,6 +15,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
+const formatJs = path.resolve(here, '..', '..', 'format', 'js');
 const TYPES = {
   '.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8', '.mjs': 'text/javascript; charset=utf-8',
   '.json': 'application/json', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary', '.npz': 'application/octet-stream',
@@ -28,6 +30,9 @@ export function startServer({ files = {}, port = 8080, host = '127.0.0.1', quiet
     let file;
     if (p.startsWith('/files/')) {
       file = files[p.slice(7)];
+    } else if (p.startsWith('/format/js/')) {  // the engine-free reader and the three.js plugin
+      file = path.join(formatJs, path.normalize(p.slice(11)).replace(/^(\.\.[/\\])+/, ''));
+      if (!file.startsWith(formatJs + path.sep)) file = undefined;
     } else {
       if (p === '/') p = '/index.html';
       file = path.join(here, path.normalize(p).replace(/^(\.\.[/\\])+/, ''));

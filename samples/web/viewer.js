@@ -1,6 +1,8 @@
-// HAHA avatar viewer: loads a packed avatar (.glb, format/spec.md), plays a motion (.npz from
-// `haha motion`, AMASS or native SMPL-X parameters) and renders the textured mesh plus the
-// face-bound Gaussians exactly like `haha render` (lib/renderer.js, lib/splat.js).
+// HAHA avatar viewer: loads a packed avatar (.glb, format/spec.md) with three.js's GLTFLoader
+// and the HAHA_gaussian_avatar plugin (format/js/three), plays a motion (.npz from `haha
+// motion`, AMASS or native SMPL-X parameters) by setting the skeleton's bones, and renders the
+// textured mesh plus the face-bound Gaussians the plugin reposes from those bones exactly like
+// `haha render` (lib/renderer.js: the merged renderer; format/js/splat.js).
 //
 // URL parameters (all optional except avatar):
 //   avatar=URL      the .glb                    motion=URL    the .npz (default: rest pose)
@@ -16,9 +18,10 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { Avatar, NUM_JOINTS } from './lib/avatar.js';
-import { motionToYUp, readMotion } from './lib/npz.js';
-import { SplatProjector } from './lib/splat.js';
+import { NUM_JOINTS } from '../../format/js/avatar.js';
+import { motionToYUp, readMotion } from '../../format/js/npz.js';
+import { SplatProjector } from '../../format/js/splat.js';
+import { HahaGaussianAvatarPlugin } from '../../format/js/three/HahaGaussianAvatarPlugin.js';
 import { AvatarRenderer } from './lib/renderer.js';
 import { parseCameraJson, cameraToJson, framingCamera, applyToThree, fromPerspective } from './lib/camera.js';
 
@@ -30,18 +33,6 @@ async function fetchBytes(url) {
   const r = await fetch(url);
   if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
   return r.arrayBuffer();
-}
-
-// The Draco decoder of three.js (served from node_modules), used for the glTF and for the
-// HAHA extension's own streams (GENERIC attributes by unique id).
-function makeDecoder(draco) {
-  return (bytes, ids, types) => new Promise((resolve, reject) => {
-    draco.decodeDracoFile(bytes.slice().buffer, (geom) => {
-      const out = { index: geom.index ? geom.index.array : null };
-      for (const k of Object.keys(ids)) out[k] = geom.attributes[k].array;
-      resolve(out);
-    }, ids, types, THREE.LinearSRGBColorSpace, reject);
-  });
 }
 
 async function textureOf(avatar) {
@@ -92,7 +83,15 @@ class Viewer {
     ]);
     const draco = new DRACOLoader().setDecoderPath('node_modules/three/examples/jsm/libs/draco/');
     const t0 = performance.now();
-    this.avatar = await Avatar.load(glbBytes, makeDecoder(draco), avatarUrl);
+    // GLTFLoader + the plugin: the skinned, textured body and the Gaussian layer (reposed
+    // from the bones; drawn here by the merged renderer, so the layer itself stays hidden).
+    const loader = new GLTFLoader().setDRACOLoader(draco);
+    loader.register((parser) => new HahaGaussianAvatarPlugin(parser, { dracoLoader: draco, name: avatarUrl }));
+    const gltf = await loader.parseAsync(glbBytes, '');
+    this.layer = gltf.userData.hahaAvatar;
+    if (!this.layer) throw new Error(`${avatarUrl}: not a HAHA avatar (no HAHA_gaussian_avatar extension)`);
+    this.layer.visible = false;
+    this.avatar = this.layer.avatar;
     const a = this.avatar;
     this.r.margin = a.depthMargin;
     this.motion = motionBytes ? readMotion(motionBytes, params.get('motion'))
@@ -100,14 +99,11 @@ class Viewer {
     motionToYUp(this.motion, a.restJoints.subarray(0, 3));  // AMASS (Z-up) stands upright
     this.frame = ((this.frame % this.motion.frames.length) + this.motion.frames.length) % this.motion.frames.length;
 
-    // Standard glTF path: GLTFLoader + DRACOLoader give the skinned, textured body.
-    const gltf = await new GLTFLoader().setDRACOLoader(draco).parseAsync(glbBytes.slice(0), '');
-    let skinned = null;
+    const skinned = this.layer.skinnedMesh;
     gltf.scene.traverse((o) => {
-      if (o.isSkinnedMesh && !skinned) skinned = o;
-      else if (o.isMesh || o.isPoints) o.visible = false;  // e.g. the optional KHR_gaussian_splatting points
+      if ((o.isMesh || o.isPoints) && o !== skinned && o !== this.layer) o.visible = false;  // e.g. the optional KHR_gaussian_splatting points
     });
-    if (!skinned) throw new Error(`${avatarUrl}: no skinned mesh`);
+    this.gltfScene = gltf.scene;
     this.bones = skinned.skeleton.bones;
     this.rootRest = this.bones[0].position.clone();
     this.texture = await textureOf(a);
@@ -161,6 +157,18 @@ class Viewer {
     return framingCamera(lo, hi, size);
   }
 
+  // glTF skin: joint j's local rotation = the axis-angle pose[3j..3j+2]; root += transl.
+  setBones(pose, transl) {
+    const axis = new THREE.Vector3();
+    for (let j = 0; j < NUM_JOINTS; j++) {
+      axis.set(pose[3 * j], pose[3 * j + 1], pose[3 * j + 2]);
+      const angle = axis.length();
+      if (angle > 0) this.bones[j].quaternion.setFromAxisAngle(axis.divideScalar(angle), angle);
+      else this.bones[j].quaternion.identity();
+    }
+    this.bones[0].position.set(this.rootRest.x + transl[0], this.rootRest.y + transl[1], this.rootRest.z + transl[2]);
+  }
+
   currentCamera() {
     return this.fixedCamera || fromPerspective(this.orbitCam, this.orbitSize, this.orbitSize);
   }
@@ -170,22 +178,15 @@ class Viewer {
   renderFrame(sync = true) {
     const a = this.avatar, t0 = performance.now();
     const { pose, transl } = this.motion.frames[this.frame];
-    a.repose(pose, transl);
+    this.setBones(pose, transl);
+    this.gltfScene.updateMatrixWorld(true);  // the plugin's layer reposes from the bones
+    this.layer.update();
     const P = this.positions, bv = a.bodyVertex;
     for (let gi = 0; gi < a.Vg; gi++) {
       const s = 3 * bv[gi];
       P[3 * gi] = a.posed[s]; P[3 * gi + 1] = a.posed[s + 1]; P[3 * gi + 2] = a.posed[s + 2];
     }
     this.exactMesh.update(P);
-    // glTF skin: joint j's local rotation = the axis-angle pose[3j..3j+2]; root += transl.
-    const axis = new THREE.Vector3();
-    for (let j = 0; j < NUM_JOINTS; j++) {
-      axis.set(pose[3 * j], pose[3 * j + 1], pose[3 * j + 2]);
-      const angle = axis.length();
-      if (angle > 0) this.bones[j].quaternion.setFromAxisAngle(axis.divideScalar(angle), angle);
-      else this.bones[j].quaternion.identity();
-    }
-    this.bones[0].position.set(this.rootRest.x + transl[0], this.rootRest.y + transl[1], this.rootRest.z + transl[2]);
     this.skinned.visible = this.skinMode === 'gltf';
     this.exactMesh.visible = this.skinMode === 'exact';
     const t1 = performance.now();

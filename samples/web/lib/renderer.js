@@ -15,7 +15,7 @@
 //                     as haha render's PNGs; then copied to the canvas (reading the canvas
 //                     back stalls Chromium for hundreds of ms, the 8-bit target does not)
 import * as THREE from 'three';
-import { STRIDE, CORNERS } from './splat.js';
+import { STRIDE, CORNERS } from '../../../format/js/splat.js';
 
 const MESH_VS = /* glsl */ `
 #include <common>

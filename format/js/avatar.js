@@ -1,14 +1,19 @@
-// A HAHA avatar (.glb + HAHA_gaussian_avatar, format/spec.md) decoded in the browser, and
-// its reposing, written to match the C++ loader (format/avatar_unpack.cpp,
+// A HAHA avatar (.glb + HAHA_gaussian_avatar, format/spec.md, versions 1 to 3) decoded in
+// JavaScript, and its reposing, written to match the C++ loader (format/avatar_unpack.cpp,
 // format/avatar_loader.cpp, body/lbs.cpp, body/face_frames.h) step by step, in float64:
 //
-//   rest vertices: the body mesh's first glTF vertex of each body vertex (BODY_VERTEX)
-//   weights:       all JOINTS_n / WEIGHTS_n sets summed per body vertex, renormalised when
-//                  the weights are quantized (negatives dropped), as the unpacker does
+//   body mesh:     Draco (KHR_draco_mesh_compression) or, version 3, plain accessors (any
+//                  layout glTF allows: byteStride, normalized integers, no indices)
+//   rest vertices: the body mesh's first glTF vertex of each body vertex (_BODY_VERTEX;
+//                  versions 1-2: the private Draco attribute BODY_VERTEX)
+//   weights:       all JOINTS_n / WEIGHTS_n sets summed per body vertex; version 1-2
+//                  quantized weights renormalised (version 3 codes sum to one exactly)
 //   joints:        regressed from the rest vertices (sparse jointRegressor), or, in version-2
 //                  files without one, minus the inverse bind matrices' translations
-//   faces:         edgebreaker meshes (version 2) list faces in the encoder's order with
-//                  rotated corners: a face carrying Gaussians is turned back by FACE_CORNER
+//   faces:         gaussians.faceOrder "canonical" (version 3): the faces sorted into the
+//                  canonical order (canonicalFaceOrder); "file": edgebreaker meshes list faces
+//                  in the encoder's order with rotated corners. Either way a face carrying
+//                  Gaussians is turned back by FACE_CORNER
 //   LBS:           v' = sum_j w_j A_j (v + pose correctives) + transl, A_j = G_j [I | -J_j]
 //   face frames:   T, R = [e | n | e x n], k = (|v0 - v2| + h) / 2 / scaleDivisor, with the
 //                  degenerate-triangle rules of body/face_frames.h
@@ -20,8 +25,14 @@
 import { Glb } from './glb.js';
 
 export const NUM_JOINTS = 55;
+export const VERSION = 3, OLDEST_VERSION = 1;  // format versions this reader implements
+// extensionsRequired entries a file may list (as format/avatar_unpack.cpp accepts them).
+const SUPPORTED_REQUIRED = new Set(['KHR_draco_mesh_compression', 'EXT_texture_webp', 'KHR_materials_unlit', 'HAHA_gaussian_avatar']);
+const ARRAY_OF = { 5120: 'Int8Array', 5121: 'Uint8Array', 5122: 'Int16Array', 5123: 'Uint16Array', 5125: 'Uint32Array', 5126: 'Float32Array' };
+const FULL_SCALE = { 5120: 127, 5121: 255, 5122: 32767, 5123: 65535 };
 export const NUM_POSE_FEATURES = 486;
 const EXT = 'HAHA_gaussian_avatar';
+const ZERO3 = [0, 0, 0];
 const DEGENERATE_REL = 1e-6, TINY = 1e-20;  // body/face_frames.h kFaceDegenerateRel, kFaceTiny
 const FRAME = 17;                              // doubles per face frame: t(3) R(9) k q(4)
 const RODRIGUES_TAYLOR_S = 1e-4;               // below: series (rotation.h); any small value works in double
@@ -83,49 +94,57 @@ export class Avatar {
     return a;
   }
 
+  // glb: a Glb (glb.js) or an ArrayBuffer of the whole file.
   async _load(buffer, decode, name) {
-    const glb = new Glb(buffer, name);
+    const glb = buffer instanceof Glb ? buffer : new Glb(buffer, name);
+    name = glb.name;
     const root = glb.json;
     const fail = (m) => { throw new Error(`${name}: ${m}`); };
     const ext = root.extensions && root.extensions[EXT];
     if (!ext) fail(`not a HAHA avatar: the glTF has no ${EXT} extension`);
-    if (ext.version !== 1 && ext.version !== 2) fail(`${EXT}: unsupported version ${ext.version} (this viewer reads versions 1 and 2)`);
+    if (!Number.isInteger(ext.version) || ext.version < OLDEST_VERSION || ext.version > VERSION) {
+      fail(`${EXT}: unsupported version ${JSON.stringify(ext.version)} (this reader reads versions ${OLDEST_VERSION} to ${VERSION})`);
+    }
+    for (const e of root.extensionsRequired || []) {
+      if (!SUPPORTED_REQUIRED.has(e)) fail(`requires glTF extension ${e}, which this reader does not support`);
+    }
     this.glb = glb;
     this.ext = ext;
+    this.version = ext.version;
     const jb = ext.body;
-    const V = jb.vertexCount, F = jb.faceCount;
+    if (!jb || typeof jb !== 'object') fail(`${EXT}.body: missing`);
+    const V = jb.vertexCount, F = jb.faceCount, sets = jb.skinSets;
+    if (!(Number.isInteger(V) && V >= 1) || !(Number.isInteger(F) && F >= 1)) fail(`${EXT}.body: bad vertexCount / faceCount`);
+    if (!(Number.isInteger(sets) && sets >= 1 && sets <= 14)) fail(`${EXT}.body.skinSets: must be in 1..14`);
     this.V = V;
     this.F = F;
+    if (!ext.faceFrame || !(ext.faceFrame.scaleDivisor > 0)) fail(`${EXT}.faceFrame.scaleDivisor: missing or not positive`);
     this.divisor = ext.faceFrame.scaleDivisor;
     this.depthMargin = ext.depthTest ? ext.depthTest.margin : 0;
 
-    // --- body mesh (Draco: sequential keeps the body's face order, edgebreaker does not) ---
-    const prim = root.meshes[jb.mesh].primitives[0];
+    // --- body mesh: Draco (any version) or plain accessors (version 3) ---
+    const mesh = (root.meshes || [])[jb.mesh];
+    if (!mesh || !mesh.primitives || !mesh.primitives.length) fail(`body mesh ${jb.mesh}: missing or without primitives`);
+    const prim = mesh.primitives[0];
+    if (prim.mode !== undefined && prim.mode !== 4) fail(`body mesh: not a triangle list (mode ${prim.mode})`);
     const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
-    if (!kd) fail('body mesh: not Draco-compressed');
-    const meshBytes = glb.checkedView(jb.draco.bufferView, jb.draco.crc32, 'body.draco');
-    const ids = { POSITION: kd.attributes.POSITION, TEXCOORD_0: kd.attributes.TEXCOORD_0, BODY_VERTEX: jb.draco.attributes.BODY_VERTEX };
-    const types = { POSITION: 'Float32Array', TEXCOORD_0: 'Float32Array', BODY_VERTEX: 'Int32Array' };
-    const sets = jb.skinSets;
-    for (let s = 0; s < sets; s++) {
-      ids[`JOINTS_${s}`] = kd.attributes[`JOINTS_${s}`];
-      types[`JOINTS_${s}`] = 'Int32Array';
-      ids[`WEIGHTS_${s}`] = kd.attributes[`WEIGHTS_${s}`];
-      types[`WEIGHTS_${s}`] = 'Float32Array';
-    }
-    const m = await decode(meshBytes, ids, types);
-    const src = m.BODY_VERTEX, pos = m.POSITION;
+    const jd = jb.draco;  // absent: a plain mesh, or a mesh rewritten by a tool
+    if (ext.version < 3 && (!kd || !jd)) fail('body mesh: not Draco-compressed (KHR_draco_mesh_compression missing)');
+    const m = kd ? await this._dracoBody(glb, prim, kd, jd, sets, decode, fail) : this._plainBody(glb, prim, sets, fail);
+    this.meshDraco = !!kd;
+    const src = m.source, pos = m.pos;
     const Vg = src.length;
     if (m.index.length !== 3 * F) fail(`body mesh: ${m.index.length / 3} faces, the file says ${F}`);
+    if (Vg < V) fail('body mesh: fewer glTF vertices than body vertices');
     this.Vg = Vg;
     this.bodyVertex = src;                  // glTF vertex -> body vertex
-    this.gltfFaces = m.index;               // (F, 3) glTF vertex indices (= UV faces)
-    this.uv = m.TEXCOORD_0;                 // (Vg, 2) glTF UVs (v down)
+    this.gltfFaces = Int32Array.from(m.index);  // (F, 3) glTF vertex indices (= UV faces)
+    this.uv = m.uv;                         // (Vg, 2) glTF UVs (v down)
     const rest = new Float64Array(3 * V);
     const seen = new Uint8Array(V);
     for (let g = 0; g < Vg; g++) {
       const s = src[g];
-      if (s < 0 || s >= V) fail(`body mesh: BODY_VERTEX ${s} out of range`);
+      if (!(s >= 0 && s < V)) fail(`body mesh: _BODY_VERTEX ${s} out of range [0, ${V})`);
       if (!seen[s]) {
         seen[s] = 1;
         rest[3 * s] = pos[3 * g]; rest[3 * s + 1] = pos[3 * g + 1]; rest[3 * s + 2] = pos[3 * g + 2];
@@ -134,11 +153,14 @@ export class Avatar {
     for (let v = 0; v < V; v++) if (!seen[v]) fail(`body mesh: body vertex ${v} has no glTF vertex`);
     this.rest = rest;
     const faces = new Int32Array(3 * F);
-    for (let c = 0; c < 3 * F; c++) faces[c] = src[m.index[c]];
-    this.faces = faces;                     // (F, 3) body vertex indices
+    for (let c = 0; c < 3 * F; c++) faces[c] = src[this.gltfFaces[c]];
+    this.faces = faces;                     // (F, 3) body vertex indices (in the Gaussians' face order, below)
 
     // --- skinning weights, as avatar_unpack.cpp skin_weights(): dense per vertex, sparse here ---
-    const quantW = jb.draco.quantizationBits && jb.draco.quantizationBits.WEIGHTS > 0;
+    // Versions 1-2 stored Draco-quantized float weights whose sums are off by up to ~1e-3:
+    // renormalised. Version 3 weights sum to one exactly (normalized integer codes).
+    const bitsW = jd && jd.quantizationBits ? jd.quantizationBits.WEIGHTS : 0;
+    const renormalise = ext.version < 3 && bitsW > 0;
     const wOff = new Int32Array(V + 1), wJ = [], wW = [];
     const dense = new Float64Array(NUM_JOINTS);
     const firstG = new Int32Array(V).fill(-1);
@@ -148,17 +170,19 @@ export class Avatar {
       dense.fill(0);
       let sum = 0;
       for (let s = 0; s < sets; s++) {
-        const J = m[`JOINTS_${s}`], W = m[`WEIGHTS_${s}`];
+        const J = m.joints[s], W = m.weights[s];
         for (let k = 0; k < 4; k++) {
           const j = J[4 * g + k], w = W[4 * g + k];
-          if (j < 0 || j >= NUM_JOINTS) fail(`body mesh: JOINTS_${s} index ${j} out of range`);
-          if (w !== 0) dense[j] += w;
+          if (!(j >= 0 && j < NUM_JOINTS)) fail(`body mesh: JOINTS_${s} index ${j} out of range`);
+          if (!Number.isFinite(w) || w < -1e-3) fail(`body mesh: invalid skinning weight at vertex ${v}`);
+          if (w !== 0) dense[j] = Math.fround(dense[j] + w);  // float accumulation, as C++
           sum += w;
         }
       }
+      if (renormalise && !(sum > 0)) fail(`body mesh: vertex ${v} has no skinning weight`);
       for (let j = 0; j < NUM_JOINTS; j++) {
         let w = dense[j];
-        if (quantW) w = w > 0 ? Math.fround(w / sum) : 0;
+        if (renormalise) w = w > 0 ? Math.fround(w / sum) : 0;
         if (w !== 0) { wJ.push(j); wW.push(w); }
       }
       wOff[v + 1] = wJ.length;
@@ -168,7 +192,8 @@ export class Avatar {
     this.wW = Float64Array.from(wW);
 
     // --- skeleton: parents from the skin's node tree ---
-    const skin = root.skins[jb.skin];
+    const skin = (root.skins || [])[jb.skin];
+    if (!skin || !Array.isArray(skin.joints)) fail(`skin ${jb.skin}: missing`);
     const nodeParent = new Int32Array(root.nodes.length).fill(-1);
     root.nodes.forEach((n, i) => (n.children || []).forEach((c) => { nodeParent[c] = i; }));
     this.jointNodes = skin.joints.slice();
@@ -189,13 +214,10 @@ export class Avatar {
       }
     } else {
       if (ext.version < 2) fail('body.jointRegressor: missing');
-      const acc = root.accessors[skin.inverseBindMatrices];
+      const acc = (root.accessors || [])[skin.inverseBindMatrices];
       if (!acc || acc.type !== 'MAT4' || acc.componentType !== 5126 || acc.count !== NUM_JOINTS) fail('skin.inverseBindMatrices: must be 55 float MAT4');
-      const ib = glb.view(acc.bufferView);
-      const off = acc.byteOffset || 0;
-      if (off + 64 * NUM_JOINTS > ib.byteLength) fail('skin.inverseBindMatrices: accessor runs past its bufferView');
-      const dv = new DataView(ib.buffer, ib.byteOffset + off, 64 * NUM_JOINTS);
-      for (let j = 0; j < NUM_JOINTS; j++) for (let c = 0; c < 3; c++) J[3 * j + c] = -dv.getFloat32(64 * j + 4 * (12 + c), true);
+      const ib = glb.readAccessor(skin.inverseBindMatrices, 16, 'skin.inverseBindMatrices').values;
+      for (let j = 0; j < NUM_JOINTS; j++) for (let c = 0; c < 3; c++) J[3 * j + c] = -ib[16 * j + 12 + c];
     }
     this.restJoints = J;
 
@@ -225,12 +247,31 @@ export class Avatar {
 
     // --- Gaussians: Draco point cloud, GENERIC attributes by unique id ---
     const jg = ext.gaussians;
+    if (!jg || typeof jg !== 'object') fail(`${EXT}.gaussians: missing`);
     const N = jg.count;
+    if (!(Number.isInteger(N) && N >= 0)) fail(`${EXT}.gaussians.count: bad value`);
     this.N = N;
     const ga = jg.attributes;
     const gbits = jg.quantizationBits || {};
+    // Which face order FACE indexes: the file's faces ("file", versions 1-2, lossless packs)
+    // or the canonical order (version 3), which survives tools that rewrite the mesh.
+    let fileOrder = ext.version < 3;
+    if (jg.faceOrder !== undefined) {
+      if (jg.faceOrder !== 'file' && jg.faceOrder !== 'canonical') fail(`gaussians.faceOrder: unknown '${jg.faceOrder}'`);
+      if (jg.faceOrder === 'canonical' && ext.version < 3) fail(`gaussians.faceOrder: 'canonical' is not in version ${ext.version}`);
+      fileOrder = jg.faceOrder === 'file';
+    } else if (ext.version >= 3) {
+      fail('gaussians.faceOrder: missing');
+    }
+    if (fileOrder && !jd) {
+      fail(`gaussians.faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no ${EXT}.body.draco)`);
+    }
+    this.faceOrder = fileOrder ? 'file' : 'canonical';
+    if (!fileOrder) canonicalFaceOrder(this.faces, this.gltfFaces);
+    const cornerStored = !fileOrder || m.edgebreaker;
     if (N > 0) {
       // One point cloud, or importance tiers (haha pack --lod): the viewer reads them all.
+      if (jg.tiers && !Array.isArray(jg.tiers)) fail('gaussians.tiers: not an array');
       const streams = jg.tiers ? jg.tiers.map((t, i) => glb.checkedView(t.bufferView, t.crc32, `gaussians tier ${i}`))
                                : [glb.checkedView(jg.bufferView, jg.crc32, 'gaussians')];
       const smallest3 = jg.rotationEncoding === 'smallest3';
@@ -238,8 +279,8 @@ export class Avatar {
       const gids = { FACE: ga.FACE, OFFSET: ga.OFFSET, ROTATION: ga.ROTATION, SCALE: ga.SCALE, COLOR: ga.COLOR, OPACITY: ga.OPACITY };
       const gtypes = { FACE: 'Int32Array', OFFSET: 'Float32Array', ROTATION: 'Float32Array', SCALE: 'Float32Array', COLOR: 'Float32Array', OPACITY: 'Float32Array' };
       if (smallest3) { gids.ROTATION_LARGEST = ga.ROTATION_LARGEST; gtypes.ROTATION_LARGEST = 'Int32Array'; }
-      const edgebreaker = jb.draco.method === 'edgebreaker';
-      if (edgebreaker) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
+      if (cornerStored) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
+      for (const k of Object.keys(gids)) if (!Number.isInteger(gids[k])) fail(`gaussians.attributes.${k}: missing`);
       const parts = [];
       for (const bytes of streams) parts.push(await decode(bytes, gids, gtypes));
       const g = {};
@@ -251,7 +292,7 @@ export class Avatar {
       }
       if (g.FACE.length !== N) fail(`gaussians: Draco stream has ${g.FACE.length} points, the file says ${N}`);
       for (let i = 0; i < N; i++) if (g.FACE[i] < 0 || g.FACE[i] >= F) fail(`gaussians: Gaussian ${i} refers to face ${g.FACE[i]}`);
-      if (edgebreaker) {  // turn each Gaussian-carrying face so its corner 0 is the body's
+      if (cornerStored) {  // turn each Gaussian-carrying face so its corner 0 is the body's
         const done = new Int8Array(F).fill(-1);
         for (let i = 0; i < N; i++) {
           const f = g.FACE[i], r = g.FACE_CORNER[i];
@@ -326,6 +367,116 @@ export class Avatar {
     this.frames = new Float64Array(FRAME * F);  // t(3) R(9, row-major) k(1) q(R)(4)
   }
 
+  // The KHR_draco_mesh_compression stream: { pos, uv, source, index, joints[s], weights[s],
+  // edgebreaker } (weights decoded to float as the accessor says: float, or normalized ints).
+  async _dracoBody(glb, prim, kd, jd, sets, decode, fail) {
+    let bytes;
+    if (jd) {
+      if (jd.bufferView !== kd.bufferView) fail(`${EXT}.body.draco: bufferView differs from the primitive's Draco stream`);
+      bytes = glb.checkedView(jd.bufferView, jd.crc32, 'body.draco');
+    } else {
+      bytes = glb.view(kd.bufferView);  // rewritten by a tool: no checksum
+    }
+    // Draco header: "DRACO", major, minor, encoder type (1 = mesh), method (0 sequential, 1 edgebreaker).
+    if (bytes.length < 9 || String.fromCharCode(...bytes.subarray(0, 5)) !== 'DRACO') fail('body mesh: not a Draco stream');
+    if (bytes[7] !== 1) fail('body mesh: the Draco stream is not a triangle mesh');
+    const edgebreaker = bytes[8] === 1;
+    if (edgebreaker && this.version < 2) fail('body mesh: edgebreaker-encoded, which version 1 files never are');
+    if (jd && jd.method !== undefined && jd.method !== (edgebreaker ? 'edgebreaker' : 'sequential')) {
+      fail(`${EXT}.body.draco.method: says '${jd.method}' but the Draco stream is ${edgebreaker ? 'edgebreaker' : 'sequential'}`);
+    }
+    const da = kd.attributes || {};
+    const accessorOf = (name) => {
+      const a = (glb.json.accessors || [])[(prim.attributes || {})[name]];
+      if (!a) fail(`body mesh: attribute ${name} has no accessor`);
+      return a;
+    };
+    const ids = {}, types = {}, norm = {};
+    const want = (key, id, type) => {
+      if (!Number.isInteger(id)) fail(`body mesh: no Draco attribute id for ${key}`);
+      ids[key] = id;
+      types[key] = type;
+    };
+    want('POSITION', da.POSITION, 'Float32Array');
+    const uvAcc = accessorOf('TEXCOORD_0');
+    want('TEXCOORD_0', da.TEXCOORD_0, uvAcc.componentType === 5126 ? 'Float32Array' : ARRAY_OF[uvAcc.componentType]);
+    if (uvAcc.normalized) norm.TEXCOORD_0 = FULL_SCALE[uvAcc.componentType];
+    if (this.version < 3) want('BODY_VERTEX', jd.attributes && jd.attributes.BODY_VERTEX, 'Int32Array');
+    else want('BODY_VERTEX', da._BODY_VERTEX, 'Int32Array');
+    for (let s = 0; s < sets; s++) {
+      want(`JOINTS_${s}`, da[`JOINTS_${s}`], 'Int32Array');
+      const wa = accessorOf(`WEIGHTS_${s}`);
+      if (wa.componentType === 5126) {
+        want(`WEIGHTS_${s}`, da[`WEIGHTS_${s}`], 'Float32Array');
+      } else if (wa.componentType === 5121 || wa.componentType === 5123) {
+        want(`WEIGHTS_${s}`, da[`WEIGHTS_${s}`], ARRAY_OF[wa.componentType]);
+        norm[`WEIGHTS_${s}`] = FULL_SCALE[wa.componentType];
+      } else {
+        fail(`WEIGHTS_${s} accessor: componentType ${wa.componentType} is not a glTF weight type`);
+      }
+    }
+    const d = await decode(bytes, ids, types);
+    if (!d.index) fail('body mesh: the Draco stream has no faces');
+    const Vg = d.BODY_VERTEX.length;
+    for (const k of Object.keys(ids)) {
+      const comps = k === 'POSITION' ? 3 : k === 'TEXCOORD_0' ? 2 : k === 'BODY_VERTEX' ? 1 : 4;
+      if (d[k].length !== comps * Vg) fail(`body mesh: Draco attribute ${k} has ${d[k].length} values, expected ${comps * Vg}`);
+    }
+    const toFloat = (k) => {
+      if (!norm[k]) return d[k];
+      const out = new Float32Array(d[k].length);
+      for (let i = 0; i < out.length; i++) out[i] = d[k][i] / norm[k];
+      return out;
+    };
+    const joints = [], weights = [];
+    for (let s = 0; s < sets; s++) { joints.push(d[`JOINTS_${s}`]); weights.push(toFloat(`WEIGHTS_${s}`)); }
+    return { pos: d.POSITION, uv: toFloat('TEXCOORD_0'), source: d.BODY_VERTEX, index: d.index, joints, weights, edgebreaker };
+  }
+
+  // Plain accessors (version 3; any layout glTF allows, e.g. as rewritten by tools).
+  _plainBody(glb, prim, sets, fail) {
+    const attrs = prim.attributes || {};
+    const read = (name, comps) => {
+      if (!Number.isInteger(attrs[name])) fail(`body mesh: attribute ${name} missing`);
+      return glb.readAccessor(attrs[name], comps, `body mesh ${name}`);
+    };
+    const pos = read('POSITION', 3);
+    const Vg = pos.count;
+    const same = (a, name) => {
+      if (a.count !== Vg) fail(`body mesh: ${name} has ${a.count} values, POSITION ${Vg}`);
+      return a;
+    };
+    const integers = (a, name) => {
+      const out = new Int32Array(a.values.length);
+      for (let i = 0; i < out.length; i++) {
+        const x = a.values[i];
+        if (x !== Math.floor(x) || !(Math.abs(x) < 1e9)) fail(`body mesh: ${name} holds a non-integer value`);
+        out[i] = x;
+      }
+      return out;
+    };
+    const p = Float32Array.from(pos.values);
+    for (let i = 0; i < p.length; i++) if (!Number.isFinite(p[i])) fail(`body mesh: non-finite POSITION at vertex ${Math.floor(i / 3)}`);
+    const uv = Float32Array.from(same(read('TEXCOORD_0', 2), 'TEXCOORD_0').values);
+    const source = integers(same(read('_BODY_VERTEX', 1), '_BODY_VERTEX'), '_BODY_VERTEX');
+    const joints = [], weights = [];
+    for (let s = 0; s < sets; s++) {
+      joints.push(integers(same(read(`JOINTS_${s}`, 4), `JOINTS_${s}`), `JOINTS_${s}`));
+      weights.push(Float32Array.from(same(read(`WEIGHTS_${s}`, 4), `WEIGHTS_${s}`).values));
+    }
+    let index;
+    if (prim.indices !== undefined) {
+      const ia = glb.readAccessor(prim.indices, 1, 'body mesh indices');
+      index = integers(ia, 'indices');
+      for (let i = 0; i < index.length; i++) if (!(index[i] >= 0 && index[i] < Vg)) fail(`body mesh: index ${index[i]} out of range`);
+    } else {
+      index = new Int32Array(Vg);
+      for (let i = 0; i < Vg; i++) index[i] = i;
+    }
+    if (index.length % 3) fail('body mesh: index count is not a multiple of 3');
+    return { pos: p, uv, source, index, joints, weights, edgebreaker: false };
+  }
+
   // Skinning matrices A_j (3 x 4, row-major) of a pose (165 axis-angle values).
   skinning(pose) {
     const A = this.skinA, J = this.restJoints, par = this.parents;
@@ -358,9 +509,17 @@ export class Avatar {
   // Posed body vertices (body order) into this.posed; returns the joints' world transforms.
   reposeBody(pose, transl) {
     const { A, feat, world } = this.skinning(pose);
+    this.reposeBodyWith(A, feat, transl);
+    return world;
+  }
+
+  // Posed body vertices from skinning matrices A (55 x 3 x 4, row-major, v' = A_j v) and the
+  // pose-corrective features feat (486: R_j - I of joints 1..54, row-major 3 x 3 each; null:
+  // none), e.g. from an engine's skeleton (skinningFromBones). transl is added.
+  reposeBodyWith(A, feat, transl = ZERO3) {
     const V = this.V, rest = this.rest, out = this.posed, off = this.wOff, wJ = this.wJ, wW = this.wW;
     let vp = rest;
-    if (this.posedirs) {
+    if (this.posedirs && feat) {
       vp = this._vposed || (this._vposed = new Float64Array(3 * V));
       vp.set(rest);
       const nz = [];
@@ -385,7 +544,29 @@ export class Avatar {
       out[3 * v + 1] = T[4] * x + T[5] * y + T[6] * z + T[7] + transl[1];
       out[3 * v + 2] = T[8] * x + T[9] * y + T[10] * z + T[11] + transl[2];
     }
-    return world;
+  }
+
+  // Skinning matrices and pose-corrective features of an engine's skeleton. jointToAvatar(j):
+  // joint j's 4 x 4 skinning matrix in the avatar's glTF frame (column-major 16 numbers:
+  // world(joint) * inverseBind(joint), expressed relative to the avatar's root), and
+  // localRotation(j): the joint's rotation relative to its parent, a unit quaternion
+  // [x, y, z, w]. Returns { A, feat } for reposeBodyWith.
+  skinningFromMatrices(jointToAvatar, localRotation) {
+    const A = this._boneA || (this._boneA = new Float64Array(12 * NUM_JOINTS));
+    const feat = this._boneFeat || (this._boneFeat = new Float64Array(NUM_POSE_FEATURES));
+    for (let j = 0; j < NUM_JOINTS; j++) {
+      const e = jointToAvatar(j);
+      for (let r = 0; r < 3; r++) for (let c = 0; c < 4; c++) A[12 * j + 4 * r + c] = e[4 * c + r];
+      if (j === 0) continue;
+      const [x, y, z, w] = localRotation(j);
+      const R = [
+        1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+      ];
+      for (let k = 0; k < 9; k++) feat[9 * (j - 1) + k] = R[k] - (k % 4 === 0 ? 1 : 0);
+    }
+    return { A, feat };
   }
 
   // World-space Gaussians of the posed body in this.posed: means, quats (w, x, y, z), scales.
@@ -503,4 +684,37 @@ export function faceFrame(P, i0, i1, i2, divisor, out, o) {
   out[o + 12] = (ld + area2 / den) / (2 * divisor);
   const q = matToQuat(ex, nx, bbx, ey, ny, bby, ez, nz, bbz);
   out[o + 13] = q[0]; out[o + 14] = q[1]; out[o + 15] = q[2]; out[o + 16] = q[3];
+}
+
+
+// The canonical face order (format/spec.md, gaussians.faceOrder; format/canonical_faces.cpp):
+// every face rotated to the lexicographically smallest of its three corner rotations
+// (orientation kept), the faces sorted by that triple (stable). faces (F, 3) body vertices
+// and uvFaces (F, 3) glTF vertices are reordered in place the same way.
+export function canonicalFaceOrder(faces, uvFaces) {
+  const F = faces.length / 3;
+  const rot = new Uint8Array(F), key = new Int32Array(3 * F);
+  const less = (a0, a1, a2, b0, b1, b2) => a0 !== b0 ? a0 < b0 : a1 !== b1 ? a1 < b1 : a2 < b2;
+  for (let f = 0; f < F; f++) {
+    const v = [faces[3 * f], faces[3 * f + 1], faces[3 * f + 2]];
+    let best = 0;
+    for (let r = 1; r < 3; r++) {
+      if (less(v[r], v[(r + 1) % 3], v[(r + 2) % 3], v[best], v[(best + 1) % 3], v[(best + 2) % 3])) best = r;
+    }
+    rot[f] = best;
+    for (let i = 0; i < 3; i++) key[3 * f + i] = v[(best + i) % 3];
+  }
+  const order = Array.from({ length: F }, (_, f) => f);
+  order.sort((a, b) => {  // Array.prototype.sort is stable
+    for (let i = 0; i < 3; i++) if (key[3 * a + i] !== key[3 * b + i]) return key[3 * a + i] - key[3 * b + i];
+    return 0;
+  });
+  for (const arr of [faces, uvFaces]) {
+    const src = arr.slice();
+    for (let k = 0; k < F; k++) {
+      const f = order[k], r = rot[f];
+      for (let i = 0; i < 3; i++) arr[3 * k + i] = src[3 * f + (r + i) % 3];
+    }
+  }
+  return order;
 }

@@ -1,4 +1,4 @@
-// Per-Gaussian part of the 3DGS EWA splatting of libhaha/render/gaussian_kernels.h
+// Engine-free. Per-Gaussian part of the 3DGS EWA splatting of libhaha/render/gaussian_kernels.h
 // (project_gaussian, plain / not antialiased, as the avatar render uses it), in float64,
 // and the depth sort of gaussian_raster.cpp (by camera z of the centre, ties by index).
 // The per-pixel part (alpha = min(0.99, o exp(power)), skipped below 1/255, depth test
@@ -19,7 +19,9 @@ export const MIN_QUAT_NORM2 = 1e-24;
 // a GPU) pays a whole draw call per instance, 30x slower for 9k Gaussians.
 //   0..3  pixel box x0, y0, x1 + 1, y1 + 1 (inclusive box of the C++ rasterizer)
 //   4..5  centre mx, my (pixels)         6..8  conic ca, cb, cc
-//   9     opacity  10 power_min  11 camera z     12..14 colour    15 unused
+//   9     opacity  10 power_min  11 camera z     12..14 colour
+//   15    normalized device depth of the centre (cam.depthA, cam.depthB: a GL projection's
+//         P[10], P[14]; ndc = (-A z + B) / z for camera z minus cam.depthMargin; 0 without)
 export const STRIDE = 16;
 export const CORNERS = 4;
 
@@ -39,9 +41,11 @@ export class SplatProjector {
 
   // means (N,3), quats (N,4 wxyz), scales (N,3), opacity (N), color (N,3) -> this.out,
   // returns the number of visible Gaussians (instances).
-  project(cam, N, means, quats, scales, opacity, color) {
+  // options.corners = 0: only project and sort (then write() copies them out).
+  project(cam, N, means, quats, scales, opacity, color, options = {}) {
     if (N > this.capacity) this.resize(N);
-    const R = cam.R, t = cam.t, { fx, fy, cx, cy } = cam;
+    const R = cam.R, t = cam.t, { fx, fy, cx, cy, depthA, depthB } = cam;
+    const depthMargin = cam.depthMargin || 0;
     const ulo = -FOV_CLAMP * cx / fx, uhi = FOV_CLAMP * (cam.width - cx) / fx;
     const vlo = -FOV_CLAMP * cy / fy, vhi = FOV_CLAMP * (cam.height - cy) / fy;
     const tmp = this.tmp;
@@ -101,10 +105,14 @@ export class SplatProjector {
       tmp[p + 6] = c / det; tmp[p + 7] = -b / det; tmp[p + 8] = a / det;
       tmp[p + 9] = o; tmp[p + 10] = -0.5 * k; tmp[p + 11] = z;
       tmp[p + 12] = color[3 * i]; tmp[p + 13] = color[3 * i + 1]; tmp[p + 14] = color[3 * i + 2];
+      const zd = z - depthMargin;
+      tmp[p + 15] = depthA === undefined ? 0 : (-depthA * zd + depthB) / zd;
       this.keyView[n] = z;  // float32, as the C++ rasterizer sorts
       vis[n++] = i;
     }
     const sorted = this._sort(n);
+    this.sorted = sorted;
+    if (options.corners === 0) return n;  // the caller reads this.tmp in this.sorted order (write())
     const out = this.out;
     for (let s = 0; s < n; s++) {
       const src = STRIDE * sorted[s], dst = CORNERS * STRIDE * s;
@@ -114,6 +122,16 @@ export class SplatProjector {
       }
     }
     return n;
+  }
+
+  // The n projected Gaussians of the last project() into out (STRIDE floats each), in depth
+  // order, front to back or (backToFront) back to front for "over" blending.
+  write(out, n, backToFront = false) {
+    const tmp = this.tmp, sorted = this.sorted;
+    for (let s = 0; s < n; s++) {
+      const src = STRIDE * sorted[backToFront ? n - 1 - s : s], dst = STRIDE * s;
+      for (let k = 0; k < STRIDE; k++) out[dst + k] = tmp[src + k];
+    }
   }
 
   // Visible Gaussians (this.order[0..n), in index order) sorted by (float32 z, index):

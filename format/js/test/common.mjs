@@ -1,0 +1,276 @@
+// Shared parts of the browser tests of the three.js plugin and the Babylon.js extension:
+// a tiny avatar from the built `haha`, the reference renders, PNG/PSNR, a static server of
+// format/js (node_modules included, never a CDN), headless Debian Chromium (playwright-core,
+// never a downloaded browser), and the engine-free reader in Node for reference values.
+import fs from 'node:fs';
+import path from 'node:path';
+import os from 'node:os';
+import http from 'node:http';
+import { execFileSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import { fileURLToPath } from 'node:url';
+
+export const here = path.dirname(fileURLToPath(import.meta.url));
+export const jsRoot = path.resolve(here, '..');  // format/js
+export const SKIP = 77;
+
+// --key value arguments (and bare --flags listed in flags).
+export function parseArgs(defaults, flags = []) {
+  const opts = { chromium: process.env.HAHA_CHROMIUM || '/usr/bin/chromium', ...defaults };
+  const argv = process.argv.slice(2);
+  for (let i = 0; i < argv.length; i++) {
+    const k = argv[i].replace(/^--/, '');
+    if (flags.includes(k)) opts[k] = true;
+    else opts[k] = argv[++i];
+  }
+  return opts;
+}
+
+// Exits 77 with the reason when Chromium or the npm packages are missing; returns modules.
+export async function requireBrowser(opts, testName, packages) {
+  if (!fs.existsSync(opts.chromium)) {
+    console.log(`SKIP ${testName}: no Chromium at ${opts.chromium} (apt-get install chromium, or set HAHA_CHROMIUM)`);
+    process.exit(SKIP);
+  }
+  try {
+    const { chromium } = await import('playwright-core');
+    const { PNG } = await import('pngjs');
+    for (const p of packages) if (!fs.existsSync(path.join(jsRoot, 'node_modules', p))) throw new Error(`${p} missing`);
+    return { chromium, PNG };
+  } catch (e) {
+    console.log(`SKIP ${testName}: format/js/node_modules incomplete (${e.message}); run  npm ci --prefix format/js`);
+    process.exit(SKIP);
+  }
+}
+
+export function runner(haha) {
+  const env = { ...process.env, OMP_WAIT_POLICY: process.env.OMP_WAIT_POLICY || 'passive' };
+  return (args) => {
+    const t = Date.now();
+    execFileSync(haha, args, { stdio: ['ignore', 'ignore', 'inherit'], env });
+    return (Date.now() - t) / 1000;
+  };
+}
+
+export function workDir(opts, prefix) {
+  const work = opts.work ? path.resolve(opts.work) : fs.mkdtempSync(path.join(os.tmpdir(), prefix));
+  fs.mkdirSync(work, { recursive: true });
+  return work;
+}
+
+// A tiny trained run (as samples/web/test/viewer_test.mjs makes it), reused when present.
+export function tinyRun(run, work) {
+  if (fs.existsSync(`${work}/run/avatar.npz`)) return `${work}/run`;
+  run(['synth', '--out', `${work}/data`, '--frames', '8', '--test-frames', '2', '--size', '64']);
+  run(['train', '--data', `${work}/data`, '--out', `${work}/run`, '--preset', 'tiny', 'resolution=64',
+    's1.steps=50', 's1.densify.from=10', 's1.densify.until=40', 's1.densify.every=20', 's2.steps=30', 's2.texture_size=64',
+    's3.steps=30', 's3.prune_every=20', 'log_every=1000']);
+  return `${work}/run`;
+}
+
+// The pack variants the tests load: the default (Draco mesh) and, when this haha writes
+// format version 3, the Draco-free mesh (--mesh-compression none) with skinned splats.
+export function packVariants(run, haha, runDir, work) {
+  const help = execFileSync(haha, ['pack', '--help'], { encoding: 'utf8' });
+  const variants = [{ name: 'draco', file: `${work}/avatar_draco.glb`, args: [] }];
+  if (help.includes('--mesh-compression')) {
+    variants.push({ name: 'plain', file: `${work}/avatar_plain.glb`, args: ['--mesh-compression', 'none', '--khr-gaussian-splatting'] });
+  } else {
+    console.log('note: this haha has no --mesh-compression (format version 2): the plain-mesh variant is not tested');
+  }
+  for (const v of variants) run(['pack', runDir, '--out', v.file, ...v.args]);
+  return variants;
+}
+
+export function readPng(PNG, file) {
+  const p = PNG.sync.read(fs.readFileSync(file));
+  const rgb = new Uint8Array(3 * p.width * p.height);
+  for (let i = 0; i < p.width * p.height; i++) for (let c = 0; c < 3; c++) rgb[3 * i + c] = p.data[4 * i + c];
+  return { width: p.width, height: p.height, rgb };
+}
+
+export function writePng(PNG, file, { width, height, rgb }) {
+  const p = new PNG({ width, height });
+  for (let i = 0; i < width * height; i++) {
+    for (let c = 0; c < 3; c++) p.data[4 * i + c] = rgb[3 * i + c];
+    p.data[4 * i + 3] = 255;
+  }
+  fs.writeFileSync(file, PNG.sync.write(p));
+}
+
+// Side by side: reference | engine | 4 x |difference|.
+export function writeStrip(PNG, file, ref, img) {
+  const W = ref.width, H = ref.height, strip = { width: 3 * W, height: H, rgb: new Uint8Array(9 * W * H) };
+  for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) for (let c = 0; c < 3; c++) {
+    const i = 3 * (y * W + x) + c, o = (k) => 3 * (y * 3 * W + k * W + x) + c;
+    strip.rgb[o(0)] = ref.rgb[i]; strip.rgb[o(1)] = img.rgb[i];
+    strip.rgb[o(2)] = Math.min(255, 4 * Math.abs(img.rgb[i] - ref.rgb[i]));
+  }
+  writePng(PNG, file, strip);
+}
+
+// PSNR (data range 255) over all pixels, and over the avatar's footprint (either image off
+// the black background).
+export function psnr(a, b) {
+  let se = 0, seFg = 0, nFg = 0, maxd = 0;
+  for (let i = 0; i < a.width * a.height; i++) {
+    let s = 0, fg = false;
+    for (let c = 0; c < 3; c++) {
+      const d = a.rgb[3 * i + c] - b.rgb[3 * i + c];
+      s += d * d;
+      maxd = Math.max(maxd, Math.abs(d));
+      if (a.rgb[3 * i + c] !== 0 || b.rgb[3 * i + c] !== 0) fg = true;
+    }
+    se += s;
+    if (fg) { seFg += s; nFg++; }
+  }
+  const db = (sum, n) => (sum === 0 ? Infinity : 10 * Math.log10(255 * 255 / (sum / (3 * n))));
+  return { all: db(se, a.width * a.height), fg: db(seFg, Math.max(1, nFg)), fgPixels: nFg, maxDiff: maxd };
+}
+export const fmtPsnr = (p) => `${p.all.toFixed(2)} dB (avatar pixels: ${p.fg.toFixed(2)} dB over ${p.fgPixels}; max |diff| ${p.maxDiff})`;
+
+const TYPES = {
+  '.html': 'text/html; charset=utf-8', '.js': 'text/javascript; charset=utf-8', '.mjs': 'text/javascript; charset=utf-8',
+  '.json': 'application/json', '.wasm': 'application/wasm', '.glb': 'model/gltf-binary',
+};
+
+// Serves format/js/ at / and `files` ({ name: path }) at /files/<name>.
+export function startServer(files) {
+  const server = http.createServer((req, res) => {
+    const p = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+    let file;
+    if (p.startsWith('/files/')) file = files[p.slice(7)];
+    else {
+      file = path.join(jsRoot, path.normalize(p).replace(/^(\.\.[/\\])+/, ''));
+      if (!file.startsWith(jsRoot + path.sep)) file = undefined;
+    }
+    if (!file || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
+      res.writeHead(404, { 'content-type': 'text/plain' });
+      res.end(`not found: ${p}\n`);
+      return;
+    }
+    res.writeHead(200, { 'content-type': TYPES[path.extname(file)] || 'application/octet-stream', 'cache-control': 'no-store' });
+    fs.createReadStream(file).pipe(res);
+  });
+  return new Promise((resolve, reject) => {
+    server.on('error', reject);
+    server.listen(0, '127.0.0.1', () => resolve({ server, base: `http://127.0.0.1:${server.address().port}/` }));
+  });
+}
+
+export async function launch(chromium, opts) {
+  return chromium.launch({
+    executablePath: opts.chromium,
+    headless: true,
+    args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update', '--disable-sync',
+      '--no-first-run', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+  });
+}
+
+// Node-side reader (the reference for the engines' Gaussian centres): three's Draco decoder
+// module, run synchronously.
+let dracoModule = null;
+export async function loadAvatarNode(file) {
+  const { Avatar } = await import('../avatar.js');
+  const { dracoDecode } = await import('../draco.js');
+  if (!dracoModule) {
+    const src = fs.readFileSync(path.join(jsRoot, 'node_modules/three/examples/jsm/libs/draco/draco_decoder.js'), 'utf8');
+    const factory = new Function('module', 'exports', 'require', '__dirname', `${src}\nreturn DracoDecoderModule;`)(
+      undefined, undefined, createRequire(import.meta.url), path.join(jsRoot, 'node_modules/three/examples/jsm/libs/draco'));
+    dracoModule = await factory();
+  }
+  const b = fs.readFileSync(file);
+  return Avatar.load(b.buffer.slice(b.byteOffset, b.byteOffset + b.length), dracoDecode(dracoModule), file);
+}
+
+// The motion (haha motion: AMASS-style) turned upright for this avatar, as haha render does.
+export async function readMotionFor(file, avatar) {
+  const { readMotion, motionToYUp } = await import('../npz.js');
+  const b = fs.readFileSync(file);
+  const m = readMotion(b.buffer.slice(b.byteOffset, b.byteOffset + b.length), file);
+  return motionToYUp(m, avatar.restJoints.subarray(0, 3));
+}
+
+// render_run.cpp's framing camera over the given frames, as cam.json, cropped to a
+// non-square image with an off-centre principal point (all conventions exercised).
+export function framingCameraJson(avatar, frames, size) {
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (const { pose, transl } of frames) {
+    avatar.reposeBody(pose, transl);
+    for (let v = 0; v < avatar.V; v++) for (let k = 0; k < 3; k++) {
+      lo[k] = Math.min(lo[k], avatar.posed[3 * v + k]);
+      hi[k] = Math.max(hi[k], avatar.posed[3 * v + k]);
+    }
+  }
+  const f = 1.5 * size;
+  const centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
+  const half = 0.5 * Math.max(hi[0] - lo[0], hi[1] - lo[1]) * 1.15;
+  const dist = half * f / (0.5 * size) + 0.5 * (hi[2] - lo[2]);
+  const eye = [centre[0], centre[1], centre[2] + dist];
+  const cam = {
+    width: Math.round(size * 0.875), height: Math.round(size * 1.0625),
+    K: [[f, 0, 0.5 * size - 0.0645 * size], [0, f, 0.5 * size + 0.0273 * size], [0, 0, 1]],
+    world_to_camera: [[1, 0, 0, -eye[0]], [0, -1, 0, eye[1]], [0, 0, -1, eye[2]], [0, 0, 0, 1]],
+    near: 0.01, far: dist * 4 + 10,
+  };
+  return cam;
+}
+
+// A native SMPL-X parameter file (.npz of float64 .npy arrays) holding one pose, for
+// `haha render --params`.
+export async function writeParamsNpz(file, pose, transl) {
+  const { zipSync } = await import('fflate');
+  const npy = (values, shape) => {
+    let header = `{'descr': '<f8', 'fortran_order': False, 'shape': (${shape.join(', ')}${shape.length === 1 ? ',' : ''}), }`;
+    const pad = 64 - ((10 + header.length + 1) % 64);
+    header += ' '.repeat(pad) + '\n';
+    const out = new Uint8Array(10 + header.length + 8 * values.length);
+    out.set([0x93, 0x4e, 0x55, 0x4d, 0x50, 0x59, 1, 0, header.length & 255, header.length >> 8]);
+    for (let i = 0; i < header.length; i++) out[10 + i] = header.charCodeAt(i);
+    const body = new Uint8Array(Float64Array.from(values).buffer);
+    out.set(body, 10 + header.length);
+    return out;
+  };
+  const parts = { global_orient: [0, 1], body_pose: [1, 21], jaw_pose: [22, 1], leye_pose: [23, 1], reye_pose: [24, 1],
+    left_hand_pose: [25, 15], right_hand_pose: [40, 15] };
+  const entries = {};
+  for (const [k, [j0, n]] of Object.entries(parts)) entries[`${k}.npy`] = npy(pose.slice(3 * j0, 3 * (j0 + n)), [1, 3 * n]);
+  entries['transl.npy'] = npy(transl, [1, 3]);
+  fs.writeFileSync(file, zipSync(entries, { level: 0 }));
+}
+
+// "No Gaussian stays behind": the engine's Gaussian centres against (a) the Node reader's
+// exact reposing of the same pose and (b) the centroids of their faces as the engine skins
+// the body: a centre's distance to its face centroid may change only by the face's stretch
+// (and the engine's 4-influence skin), never by the arm's motion.
+export function checkCentres(label, got, ref, restGot, cen, restCen, tol) {
+  const N = got.length / 3;
+  let maxRef = 0, maxRel = 0, moved = 0, stayed = 0;
+  for (let i = 0; i < N; i++) {
+    const d = (a, b, o) => Math.hypot(a[o] - b[o], a[o + 1] - b[o + 1], a[o + 2] - b[o + 2]);
+    maxRef = Math.max(maxRef, d(got, ref, 3 * i));
+    const rel = Math.abs(d(got, cen, 3 * i) - d(restGot, restCen, 3 * i));
+    maxRel = Math.max(maxRel, rel);
+    const faceMove = d(cen, restCen, 3 * i), gMove = d(got, restGot, 3 * i);
+    if (faceMove > 0.1) moved++;
+    if (faceMove > 0.1 && gMove < 0.5 * faceMove) stayed++;
+  }
+  const ok = maxRef <= tol.exact && maxRel <= tol.relative && stayed === 0 && moved > 0;
+  console.log(`${label}: ${N} Gaussians, ${moved} on faces that moved > 10 cm, ${stayed} left behind; ` +
+              `max |centre - exact reference| ${(1000 * maxRef).toFixed(4)} mm (<= ${1000 * tol.exact}), ` +
+              `max change of centre-to-face-centroid distance ${(1000 * maxRel).toFixed(2)} mm (<= ${1000 * tol.relative})` +
+              `${ok ? '' : '  FAIL'}`);
+  return ok;
+}
+
+export const decodeF64 = (b64) => { const b = Buffer.from(b64, 'base64'); return new Float64Array(b.buffer, b.byteOffset, b.length / 8); };
+export const decodeRgb = (b64) => Uint8Array.from(Buffer.from(b64, 'base64'));
+
+// The raised-arm test pose: left shoulder up (about +Z lifts the +X arm), elbow bent a little.
+export function raisedArmPose() {
+  const pose = new Float64Array(165);
+  pose[3 * 16 + 2] = 1.3;   // left_shoulder
+  pose[3 * 18 + 1] = -0.6;  // left_elbow
+  pose[3 * 17 + 2] = -0.4;  // right_shoulder down a little
+  return { pose, transl: new Float64Array(3) };
+}
