@@ -36,3 +36,8 @@ fi
 if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../samples/web/node_modules/playwright-core" ]; then
   npm ci --prefix "$(dirname "$0")/../samples/web" --no-audit --no-fund --loglevel=error >/dev/null
 fi
+# The loader plugins of format/js (three, babylonjs + babylonjs-loaders; playwright-core,
+# pngjs for their browser tests; pinned by format/js/package-lock.json).
+if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../format/js/node_modules/babylonjs-loaders" ]; then
+  npm ci --prefix "$(dirname "$0")/../format/js" --no-audit --no-fund --loglevel=error >/dev/null
+fi

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# CTest `js_three_plugin` / `js_babylon_extension` (label slow): the three.js GLTFLoader plugin
+# and the Babylon.js glTF loader extension of format/js in headless Chromium against `haha
+# render` (format/js/test/{three_plugin,babylon_extension}_test.mjs).
+# Usage: format_js_test.sh three|babylon HAHA WORKDIR
+# Exits 77 (CTest SKIP_RETURN_CODE) with the reason printed when node, Chromium or
+# format/js/node_modules are missing (scripts/install-deps.sh installs them).
+set -euo pipefail
+engine="$1"
+haha="$2"
+work="$3"
+root=$(cd "$(dirname "$0")/../.." && pwd)
+js="$root/format/js"
+case "$engine" in
+  three) script="$js/test/three_plugin_test.mjs"; name=js_three_plugin; need=(three playwright-core pngjs fflate) ;;
+  babylon) script="$js/test/babylon_extension_test.mjs"; name=js_babylon_extension; need=(babylonjs babylonjs-loaders three playwright-core pngjs fflate) ;;
+  *) echo "format_js_test.sh: unknown engine '$engine' (three or babylon)"; exit 2 ;;
+esac
+chromium="${HAHA_CHROMIUM:-/usr/bin/chromium}"
+skip() { echo "SKIP $name: $*"; exit 77; }
+command -v node >/dev/null 2>&1 || skip "node is not installed"
+[ -x "$chromium" ] || skip "no Chromium at $chromium (apt-get install chromium, or set HAHA_CHROMIUM)"
+for p in "${need[@]}"; do
+  [ -d "$js/node_modules/$p" ] || skip "format/js/node_modules/$p is missing: npm ci --prefix format/js"
+done
+rm -rf "$work"
+mkdir -p "$work"
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
+exec node "$script" --haha "$haha" --work "$work" --chromium "$chromium"
