@@ -12,5 +12,5 @@ import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
   test: 'js_babylon_extension', engine: 'babylon', page: 'babylon_page.html',
-  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}]],
+  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }]],
 }));

@@ -18,10 +18,12 @@ const canvas = document.getElementById('view');
 const engine = new B.Engine(canvas, false, { preserveDrawingBuffer: true, antialias: false, adaptToDeviceRatio: false });
 let scene = null, layer = null, camera = null, rootRest = null;
 
+let leftHanded = false;
+
 function newScene() {
   if (scene) scene.dispose();
   scene = new B.Scene(engine);
-  scene.useRightHandedSystem = true;
+  scene.useRightHandedSystem = !leftHanded;
   scene.clearColor = new B.Color4(0, 0, 0, 1);
   camera = new B.Camera('opencv', B.Vector3.Zero(), scene);
   scene.activeCamera = camera;
@@ -29,6 +31,7 @@ function newScene() {
 
 window.hahaTest = {
   async load(url, options = {}) {
+    leftHanded = !!options.leftHanded;  // Babylon's default handedness (the glTF mirrored by __root__)
     newScene();
     const t0 = performance.now();
     await B.SceneLoader.ImportMeshAsync('', '', url, scene, undefined, '.glb');
@@ -48,7 +51,7 @@ window.hahaTest = {
   render(cam, gaussians = true) {
     layer.mesh.setEnabled(gaussians);
     engine.setSize(cam.width, cam.height);
-    const { view, proj } = glMatrices(cam);
+    const { view, proj } = glMatrices(cam, leftHanded);
     const V = B.Matrix.FromArray(view), P = B.Matrix.FromArray(proj);
     camera.getViewMatrix = () => V;
     camera.freezeProjectionMatrix(P);
