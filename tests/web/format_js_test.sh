@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# CTest `js_three_plugin` / `js_babylon_extension` (label slow): the three.js GLTFLoader plugin
-# and the Babylon.js glTF loader extension of format/js in headless Chromium against `haha
-# render` (format/js/test/{three_plugin,babylon_extension}_test.mjs).
-# Usage: format_js_test.sh three|babylon HAHA WORKDIR
+# CTest `js_three_plugin` / `js_babylon_extension` / `js_reader` (label slow): the three.js
+# GLTFLoader plugin and the Babylon.js glTF loader extension of format/js in headless Chromium
+# against `haha render` (format/js/test/{three_plugin,babylon_extension}_test.mjs), and the
+# engine-free reader on rewritten copies of the avatar in Node (format/js/test/reader_test.mjs).
+# Usage: format_js_test.sh three|babylon|reader HAHA WORKDIR
 # Exits 77 (CTest SKIP_RETURN_CODE) with the reason printed when node, Chromium or
 # format/js/node_modules are missing (scripts/install-deps.sh installs them).
 set -euo pipefail
@@ -14,12 +15,13 @@ js="$root/format/js"
 case "$engine" in
   three) script="$js/test/three_plugin_test.mjs"; name=js_three_plugin; need=(three playwright-core pngjs fflate) ;;
   babylon) script="$js/test/babylon_extension_test.mjs"; name=js_babylon_extension; need=(babylonjs babylonjs-loaders three playwright-core pngjs fflate) ;;
-  *) echo "format_js_test.sh: unknown engine '$engine' (three or babylon)"; exit 2 ;;
+  reader) script="$js/test/reader_test.mjs"; name=js_reader; need=(three fflate) ;;
+  *) echo "format_js_test.sh: unknown engine '$engine' (three, babylon or reader)"; exit 2 ;;
 esac
 chromium="${HAHA_CHROMIUM:-/usr/bin/chromium}"
 skip() { echo "SKIP $name: $*"; exit 77; }
 command -v node >/dev/null 2>&1 || skip "node is not installed"
-[ -x "$chromium" ] || skip "no Chromium at $chromium (apt-get install chromium, or set HAHA_CHROMIUM)"
+[ "$engine" = reader ] || [ -x "$chromium" ] || skip "no Chromium at $chromium (apt-get install chromium, or set HAHA_CHROMIUM)"
 for p in "${need[@]}"; do
   [ -d "$js/node_modules/$p" ] || skip "format/js/node_modules/$p is missing: npm ci --prefix format/js"
 done
