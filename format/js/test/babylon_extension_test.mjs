@@ -4,13 +4,14 @@
 // Draco decoder served locally) imports each pack variant of a tiny avatar with the glTF loader
 // and HAHA_gaussian_avatar registered, sets the joint nodes' rotations and renders the scene in
 // headless Debian Chromium; checks in common.mjs engineTest: PSNR against `haha render` for a
-// motion frame and a raised arm (>= 30 dB); the raised arm's Gaussian centres against the exact
-// reposing and the faces Babylon skins.
+// motion frame and a raised arm (>= 30 dB), right- and left-handed scenes; the raised arm's
+// Gaussian centres against the exact reposing and the faces Babylon skins, the pose set on the
+// joint nodes by hand and played by an AnimationGroup.
 // Usage: babylon_extension_test.mjs --haha PATH [--work DIR] [--size 128] [--frame 3] [--keep]
 // Exit codes: 0 pass, 1 fail, 77 skip (no Chromium / node_modules).
 import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
   test: 'js_babylon_extension', engine: 'babylon', page: 'babylon_page.html',
-  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }]],
+  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }]], mixer: 'an AnimationGroup',
 }));

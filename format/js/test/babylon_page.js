@@ -48,6 +48,24 @@ window.hahaTest = {
     }
     layer.joints[0].position.set(rootRest.x + transl[0], rootRest.y + transl[1], rootRest.z + transl[2]);
   },
+  // The same pose played by a Babylon AnimationGroup (one key per joint node) instead of set by hand.
+  setPoseByMixer(pose, transl) {
+    const group = new B.AnimationGroup('pose', scene);
+    for (let j = 0; j < 55; j++) {
+      const [x, y, z, w] = axisAngleQuat(pose[3 * j], pose[3 * j + 1], pose[3 * j + 2]);
+      const anim = new B.Animation(`q${j}`, 'rotationQuaternion', 30, B.Animation.ANIMATIONTYPE_QUATERNION);
+      anim.setKeys([{ frame: 0, value: new B.Quaternion(x, y, z, w) }, { frame: 1, value: new B.Quaternion(x, y, z, w) }]);
+      group.addTargetedAnimation(anim, layer.joints[j]);
+    }
+    const anim = new B.Animation('root', 'position', 30, B.Animation.ANIMATIONTYPE_VECTOR3);
+    const p = new B.Vector3(rootRest.x + transl[0], rootRest.y + transl[1], rootRest.z + transl[2]);
+    anim.setKeys([{ frame: 0, value: p }, { frame: 1, value: p.clone() }]);
+    group.addTargetedAnimation(anim, layer.joints[0]);
+    group.start(false, 1, 0, 1);
+    group.goToFrame(1);
+    group.pause();
+    return group.targetedAnimations.length;
+  },
   render(cam, gaussians = true) {
     layer.mesh.setEnabled(gaussians);
     engine.setSize(cam.width, cam.height);

@@ -367,6 +367,13 @@ export async function engineTest(spec) {
         ref.repose(arm.pose, arm.transl);
         if (!checkCentres(`  ${label}: raised arm, Gaussian centres`, decodeF64(got.means), ref.means, decodeF64(rest.means),
           decodeF64(got.centroids), decodeF64(rest.centroids), { exact: 1e-5, relative: 0.02 })) fail(`${label}: Gaussian centres`);
+        if (spec.mixer) {  // the same pose driven by the engine's animation system
+          await page.evaluate(() => window.hahaTest.setPose(new Array(165).fill(0), [0, 0, 0]));
+          const tracks = await page.evaluate(([p, t]) => window.hahaTest.setPoseByMixer(p, t), [Array.from(arm.pose), Array.from(arm.transl)]);
+          const byMixer = await page.evaluate(() => window.hahaTest.centres());
+          if (!checkCentres(`  ${label}: raised arm played by ${spec.mixer} (${tracks} tracks), Gaussian centres`, decodeF64(byMixer.means), ref.means,
+            decodeF64(rest.means), decodeF64(byMixer.centroids), decodeF64(rest.centroids), { exact: 1e-5, relative: 0.02 })) fail(`${label}: ${spec.mixer}`);
+        }
       }
     }
     if (errors.length) console.log(`browser messages:\n${errors.join('\n')}`);

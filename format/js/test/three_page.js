@@ -5,7 +5,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { HahaGaussianAvatarPlugin } from '../three/HahaGaussianAvatarPlugin.js';
-import { poseBones, applyOpenCvCamera, toBase64 } from './page_common.js';
+import { poseBones, applyOpenCvCamera, axisAngleQuat, toBase64 } from './page_common.js';
 
 const canvas = document.getElementById('view');
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true });
@@ -32,6 +32,21 @@ window.hahaTest = {
   },
   // SMPL-X pose (165 axis-angle values) and translation, set on the bones as an application would.
   setPose(pose, transl) { poseBones(THREE, skinned.skeleton.bones, pose, transl, this._rootRest || (this._rootRest = skinned.skeleton.bones[0].position.clone())); },
+  // The same pose played by a three.js AnimationMixer (one keyframe per bone: quaternion, and
+  // the root's position) instead of set by hand.
+  setPoseByMixer(pose, transl) {
+    const bones = skinned.skeleton.bones, rest = this._rootRest || (this._rootRest = bones[0].position.clone());
+    const tracks = [];
+    for (let j = 0; j < 55; j++) {
+      const [x, y, z, w] = axisAngleQuat(pose[3 * j], pose[3 * j + 1], pose[3 * j + 2]);
+      tracks.push(new THREE.QuaternionKeyframeTrack(`${bones[j].name}.quaternion`, [0], [x, y, z, w]));
+    }
+    tracks.push(new THREE.VectorKeyframeTrack(`${bones[0].name}.position`, [0], [rest.x + transl[0], rest.y + transl[1], rest.z + transl[2]]));
+    const mixer = new THREE.AnimationMixer(gltf.scene);
+    mixer.clipAction(new THREE.AnimationClip('pose', 1, tracks)).play();
+    mixer.update(0);
+    return tracks.length;
+  },
   render(cam, gaussians = true) {
     layer.visible = gaussians;
     renderer.setSize(cam.width, cam.height, false);

@@ -5,12 +5,13 @@
 // renders with WebGLRenderer.render(scene, camera) in headless Debian Chromium; checks in
 // common.mjs engineTest: PSNR against `haha render` for a motion frame and a raised arm
 // (>= 30 dB), the body GPU-skinned by three.js (default) and exactBody; the Gaussian centres
-// of the raised arm against the exact reposing and the skinned faces.
+// of the raised arm against the exact reposing and the skinned faces, the pose set on the
+// bones by hand and played by an AnimationMixer.
 // Usage: three_plugin_test.mjs --haha PATH [--work DIR] [--size 128] [--frame 3] [--keep]
 // Exit codes: 0 pass, 1 fail, 77 skip (no Chromium / node_modules).
 import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
   test: 'js_three_plugin', engine: 'three', page: 'three_page.html', packages: ['three', 'fflate'],
-  modes: [['', {}], ['exactBody', { exactBody: true }]],
+  modes: [['', {}], ['exactBody', { exactBody: true }]], mixer: 'an AnimationMixer',
 }));
