@@ -14,13 +14,13 @@
 
 HAHA_COMMAND(pack) {
   struct Opts {
-    std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg", corrective_codec;
+    std::string run, out, model, gaussian_bits, mesh_bits, texture = "jpg", corrective_codec, mesh_compression = "draco";
     int texture_size = 0, texture_quality = haha::PackOptions{}.texture_quality;
     bool lossless = false, splats = false, correctives = false, no_correctives = false, keep_face_order = false, normals = false;
     int lod_tiers = 1;
   };
   auto o = std::make_shared<Opts>();
-  auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians, Draco)");
+  auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians)");
   sub->add_option("run", o->run, "run directory (avatar.npz + config.json naming the body model), or an avatar.npz with --model")
       ->required();
   sub->add_option("--out", o->out, "output .glb")->required();
@@ -36,6 +36,11 @@ HAHA_COMMAND(pack) {
   sub->add_flag("--lossless", o->lossless, "float32 everywhere + exact texture copy: unpack restores every parameter bit-exact");
   sub->add_flag("--khr-gaussian-splatting", o->splats,
                 "also store the Gaussians in the rest pose as a KHR_gaussian_splatting primitive (splat viewers)");
+  sub->add_option("--mesh-compression", o->mesh_compression,
+                  "draco: the body mesh Draco-compressed (smallest; viewers need a Draco decoder); none: plain accessors and "
+                  "no required extension, for engines and tools without Draco (Blender and Godot as Debian ships them)")
+      ->check(CLI::IsMember({"draco", "none"}))
+      ->capture_default_str();
   sub->add_flag("--keep-face-order", o->keep_face_order,
                 "Draco sequential mesh encoding: the file keeps the body model's face order (about 3.5x larger mesh)");
   sub->add_flag("--normals", o->normals, "store vertex normals (8-bit octahedral); the unlit material does not need them");
@@ -74,6 +79,7 @@ HAHA_COMMAND(pack) {
       opt.pose_corrective_codec = haha::parse_pose_corrective_codec(o->corrective_codec, "--pose-corrective-codec");
     }
     opt.keep_face_order = o->keep_face_order;
+    opt.mesh_compression = o->mesh_compression == "none" ? haha::MeshCompression::none : haha::MeshCompression::draco;
     opt.normals = o->normals;
     opt.lod_tiers = o->lod_tiers;
     if (o->texture_size < 0) haha::fail("--texture-size", "must be positive");

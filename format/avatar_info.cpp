@@ -113,7 +113,8 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
   j["scaleEncoding"] = i.scale_encoding;
   j["rotationEncoding"] = i.rotation_encoding;
   j["gaussianOrder"] = i.gaussian_order;
-  j["meshEncoding"] = s.edgebreaker ? "edgebreaker" : "sequential";
+  j["meshEncoding"] = !s.draco_mesh ? "none" : s.edgebreaker ? "edgebreaker" : "sequential";
+  j["gaussianFaceOrder"] = i.gaussian_face_order;
   {
     nlohmann::json tiers = nlohmann::json::array();
     for (size_t t = 0; t < i.lod_counts.size(); ++t) {
@@ -172,8 +173,8 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   }
   o << "  mesh          " << i.body_vertex_count << " body vertices (" << s.num_vertices << " glTF vertices), "
     << s.num_faces << " faces, " << s.skin_sets << " skin set(s) for up to " << s.max_influences
-    << " influences (Draco " << (s.edgebreaker ? "edgebreaker " : "sequential ") << bytes(s.mesh) << "; bits "
-    << bits_text(i.mesh_bits) << ")\n";
+    << " influences (" << (!s.draco_mesh ? "plain accessors, no Draco " : s.edgebreaker ? "Draco edgebreaker " : "Draco sequential ")
+    << bytes(s.mesh) << (s.draco_mesh ? "; bits " + bits_text(i.mesh_bits) : std::string()) << ")\n";
   if (i.joint_regressor_nonzeros > 0) {
     o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";
   } else {
@@ -188,7 +189,7 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
       << (i.pose_corrective_bits > 0 ? std::to_string(i.pose_corrective_bits) + "-bit" : std::string("float32")) << " coefficients";
   }
   o << (i.trained_with_pose_correctives ? "; trained with them" : "; trained without") << "\n";
-  o << "  splats        " << (i.splats ? "KHR_gaussian_splatting rest-pose primitive (" + bytes(s.splats) + ")" : std::string("none")) << "\n";
+  o << "  splats        " << (i.splats ? "KHR_gaussian_splatting primitive, skinned in version 3 (" + bytes(s.splats) + ")" : std::string("none")) << "\n";
   o << "  JSON          " << bytes(s.json) << "\n";
   o << "  extensions    used:";
   for (auto& e : i.extensions_used) o << " " << e;

@@ -13,6 +13,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "format/avatar_validate.h"
+#include "format/canonical_faces.h"
 #include "format/draco_io.h"
 #include "format/gaussian_lod.h"
 #include "format/glb.h"
@@ -24,7 +25,7 @@ using glb::Json;
 namespace {
 
 constexpr int kFloat = 5126, kUByte = 5121, kUShort = 5123, kUInt = 5125;
-constexpr int kArrayBuffer = 34962;
+constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
 
 // SMPL-X joint names, in joint order (node names of the skeleton).
 const char* const kJointNames[kNumJoints] = {
@@ -105,11 +106,42 @@ std::vector<float> vertex_normals(const std::vector<float>& verts, const BodyMod
 
 struct SkinSets {
   int sets = 0, max_influences = 0;
-  std::vector<uint8_t> joints;   // (sets, V, 4)
-  std::vector<float> weights;    // (sets, V, 4)
+  std::vector<uint8_t> joints;    // (sets, V, 4)
+  std::vector<float> weights;     // (sets, V, 4) lossless: float32 as trained
+  std::vector<uint16_t> codes;    // (sets, V, 4) lossy: normalized unsigned shorts
 };
 
-SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight) {
+// One vertex's weights (largest first) as normalized unsigned-short codes that sum to
+// exactly 65535 (glTF's rule, so they sum to 1 after decoding): every weight but the
+// largest is a multiple of 2^(16 - bits), together rounded to the multiple nearest their
+// sum and shared by largest remainders (each within one step); the largest takes the rest
+// (within half a step). `bits` 0 or >= 16: every code.
+std::vector<uint16_t> weight_codes(const std::vector<std::pair<float, int>>& list, int bits) {
+  const double step = bits <= 0 || bits >= 16 ? 1.0 : double(1u << (16 - bits));
+  double sum = 0;
+  for (const auto& [w, j] : list) sum += w;
+  std::vector<uint16_t> codes(list.size());
+  std::vector<int64_t> m(list.size(), 0);
+  std::vector<std::pair<double, size_t>> rest;
+  double others = 0;
+  int64_t given = 0;
+  for (size_t i = 1; i < list.size(); ++i) {
+    const double t = list[i].first / sum * 65535.0 / step;
+    others += t;
+    m[i] = int64_t(std::floor(t));
+    given += m[i];
+    rest.push_back({t - double(m[i]), i});
+  }
+  const int64_t units = std::llround(others);
+  std::stable_sort(rest.begin(), rest.end(), [](auto& a, auto& b) { return a.first > b.first; });
+  for (size_t k = 0; given < units && k < rest.size(); ++k, ++given) ++m[rest[k].second];
+  int64_t taken = 0;
+  for (size_t i = 1; i < list.size(); ++i) taken += (codes[i] = uint16_t(double(m[i]) * step));
+  codes[0] = uint16_t(65535 - taken);
+  return codes;
+}
+
+SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight, int weight_bits) {
   const int V = b.num_verts;
   std::vector<std::vector<std::pair<float, int>>> infl(static_cast<size_t>(V));
   SkinSets s;
@@ -128,23 +160,21 @@ SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight) {
     }
     // Largest first, so JOINTS_0/WEIGHTS_0 alone is the best 4-influence approximation.
     std::stable_sort(list.begin(), list.end(), [](auto& a, auto& c) { return a.first > c.first; });
-    if (!lossless) {
-      double sum = 0;
-      for (auto& [wt, j] : list) sum += wt;
-      for (auto& [wt, j] : list) wt = float(wt / sum);
-    }
   }
   size_t most = 1;
   for (auto& l : infl) most = std::max(most, l.size());
   s.sets = int((most + 3) / 4);
   s.joints.assign(size_t(s.sets) * V * 4, 0);
-  s.weights.assign(size_t(s.sets) * V * 4, 0.0f);
+  if (lossless) s.weights.assign(size_t(s.sets) * V * 4, 0.0f);
+  else s.codes.assign(size_t(s.sets) * V * 4, 0);
   for (int v = 0; v < V; ++v) {
     const auto& list = infl[size_t(v)];
+    const std::vector<uint16_t> codes = lossless ? std::vector<uint16_t>() : weight_codes(list, weight_bits);
     for (size_t i = 0; i < list.size(); ++i) {
-      const size_t set = i / 4, slot = i % 4;
-      s.joints[(set * V + v) * 4 + slot] = uint8_t(list[i].second);
-      s.weights[(set * V + v) * 4 + slot] = list[i].first;
+      const size_t at = ((i / 4) * V + size_t(v)) * 4 + i % 4;
+      s.joints[at] = uint8_t(list[i].second);
+      if (lossless) s.weights[at] = list[i].first;
+      else s.codes[at] = codes[i];
     }
   }
   return s;
@@ -197,8 +227,9 @@ struct GlbDoc {
   Json required = {"KHR_draco_mesh_compression"};
   Json ext;  // HAHA_gaussian_avatar
   PackedSizes sz;
-  // Where each body face went in the file: its face index there and which of the file
-  // face's corners is the body face's corner 0 (edgebreaker rotates corners).
+  // The face the Gaussians of each body face name (gaussians.faceOrder: the canonical
+  // order, or the file's in lossless packs) and which of its corners is the body face's
+  // corner 0.
   std::vector<int32_t> file_face;
   std::vector<uint8_t> file_corner;
   int add_accessor(Json acc) {
@@ -232,7 +263,7 @@ RestBody rest_body(const Avatar& a) {
   return r;
 }
 
-// Finds each body face in a decoded edgebreaker mesh through BODY_VERTEX: its index there
+// Finds each body face in a decoded edgebreaker mesh through _BODY_VERTEX: its index there
 // and the corner rotation. False if a body vertex or face is missing or two body faces
 // share their vertices (then the caller keeps the face order instead).
 bool match_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b, std::vector<int32_t>& file_face,
@@ -271,125 +302,220 @@ bool match_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyMode
   return true;
 }
 
-// The skinned, textured body mesh: split at UV seams, Draco-compressed (edgebreaker, or
-// sequential to keep the body's face order), with BODY_VERTEX (and, lossless, the exact
-// UVs) as private attributes. Mesh 0 of the file.
-void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackOptions& opt) {
+// The body mesh's per-glTF-vertex arrays (split at UV seams), what both storages write.
+struct BodyArrays {
+  SplitMesh split;
+  std::vector<float> pos, nrm, uv, uv_src;           // (Vg, 3), (Vg, 3) or empty, (Vg, 2), (Vg, 2)
+  SkinSets skin;                                      // per body vertex
+  std::vector<std::vector<uint8_t>> joints;           // per set (Vg, 4)
+  std::vector<std::vector<float>> weights;            // per set (Vg, 4), lossless
+  std::vector<std::vector<uint16_t>> codes;           // per set (Vg, 4), lossy
+  std::vector<uint16_t> source16;                     // _BODY_VERTEX: Draco, V <= 65536
+  std::vector<float> source_float;                    // _BODY_VERTEX: plain, or Draco with V > 65536
+};
+
+BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const PackOptions& opt) {
+  const BodyModel& b = a.body;
+  const int V = b.num_verts;
+  BodyArrays r;
+  r.split = split_at_seams(b);
+  const int Vg = int(r.split.source.size());
+  r.pos = gather(rest.verts, r.split.source, 3);
+  if (opt.normals) r.nrm = gather(vertex_normals(rest.verts, b), r.split.source, 3);
+  r.uv.assign(size_t(Vg) * 2, 0.0f);
+  r.uv_src.assign(size_t(Vg) * 2, 0.0f);
+  for (int g = 0; g < Vg; ++g) {
+    const int32_t t = r.split.uv_of[size_t(g)];
+    if (t < 0) continue;
+    r.uv_src[size_t(g) * 2] = b.vt[size_t(t) * 2];
+    r.uv_src[size_t(g) * 2 + 1] = b.vt[size_t(t) * 2 + 1];
+    r.uv[size_t(g) * 2] = r.uv_src[size_t(g) * 2];
+    r.uv[size_t(g) * 2 + 1] = 1.0f - r.uv_src[size_t(g) * 2 + 1];  // glTF UV origin: top-left
+  }
+  r.skin = skin_sets(b, opt.lossless, opt.min_skin_weight, opt.mesh_bits.weight);
+  const size_t set_size = size_t(V) * 4;
+  for (int s = 0; s < r.skin.sets; ++s) {
+    const auto first = [&](auto& v) { return v.begin() + long(size_t(s) * set_size); };
+    r.joints.push_back(gather(std::vector<uint8_t>(first(r.skin.joints), first(r.skin.joints) + long(set_size)), r.split.source, 4));
+    if (opt.lossless) {
+      r.weights.push_back(gather(std::vector<float>(first(r.skin.weights), first(r.skin.weights) + long(set_size)), r.split.source, 4));
+    } else {
+      r.codes.push_back(gather(std::vector<uint16_t>(first(r.skin.codes), first(r.skin.codes) + long(set_size)), r.split.source, 4));
+    }
+  }
+  if (V <= 65536) r.source16.assign(r.split.source.begin(), r.split.source.end());
+  if (V > (1 << 24)) fail("avatar", "more than 2^24 body vertices");
+  r.source_float.assign(r.split.source.begin(), r.split.source.end());
+  return r;
+}
+
+// Bounds of the POSITION accessor.
+Json position_bounds(const std::vector<float>& p, Json acc) {
+  std::vector<float> mn(3, INFINITY), mx(3, -INFINITY);
+  for (size_t g = 0; g < p.size() / 3; ++g)
+    for (size_t k = 0; k < 3; ++k) {
+      mn[k] = std::min(mn[k], p[g * 3 + k]);
+      mx[k] = std::max(mx[k], p[g * 3 + k]);
+    }
+  acc["min"] = float_array(mn.data(), 3);
+  acc["max"] = float_array(mx.data(), 3);
+  return acc;
+}
+
+// The body mesh as KHR_draco_mesh_compression (edgebreaker, or sequential to keep the
+// body's face order; lossless: sequential, float32). Returns the primitive.
+Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const PackOptions& opt) {
   const BodyModel& b = a.body;
   const bool lossless = opt.lossless;
   const MeshBits mb = lossless ? MeshBits{0, 0, 0, 0} : opt.mesh_bits;
-  const int V = b.num_verts, F = b.num_faces;
-  const SplitMesh split = split_at_seams(b);
-  const int Vg = int(split.source.size());
-  d.sz.num_vertices = Vg;
-  std::vector<float> pos = gather(rest.verts, split.source, 3);
-  const std::vector<float> nrm = opt.normals ? gather(vertex_normals(rest.verts, b), split.source, 3) : std::vector<float>();
-  std::vector<float> uv(size_t(Vg) * 2, 0.0f), uv_src(size_t(Vg) * 2, 0.0f);
-  for (int g = 0; g < Vg; ++g) {
-    const int32_t t = split.uv_of[size_t(g)];
-    if (t < 0) continue;
-    uv_src[size_t(g) * 2] = b.vt[size_t(t) * 2];
-    uv_src[size_t(g) * 2 + 1] = b.vt[size_t(t) * 2 + 1];
-    uv[size_t(g) * 2] = uv_src[size_t(g) * 2];
-    uv[size_t(g) * 2 + 1] = 1.0f - uv_src[size_t(g) * 2 + 1];  // glTF UV origin: top-left
-  }
-  const SkinSets skin = skin_sets(b, lossless, opt.min_skin_weight);
-  d.sz.skin_sets = skin.sets;
-  d.sz.max_influences = skin.max_influences;
-  std::vector<std::vector<uint8_t>> joints_g(size_t(skin.sets));
-  std::vector<std::vector<float>> weights_g(size_t(skin.sets));
-  for (int s = 0; s < skin.sets; ++s) {
-    std::vector<uint8_t> jv(skin.joints.begin() + size_t(s) * V * 4, skin.joints.begin() + size_t(s + 1) * V * 4);
-    std::vector<float> wv(skin.weights.begin() + size_t(s) * V * 4, skin.weights.begin() + size_t(s + 1) * V * 4);
-    joints_g[size_t(s)] = gather(jv, split.source, 4);
-    weights_g[size_t(s)] = gather(wv, split.source, 4);
-  }
-  const bool wide_index = V > 65535;
-  std::vector<uint16_t> src16;
-  if (!wide_index) src16.assign(split.source.begin(), split.source.end());
-
+  const int F = b.num_faces, Vg = int(r.split.source.size());
   using dracoio::AttrIn;
   using dracoio::Kind;
   using dracoio::Type;
   std::vector<AttrIn> mattrs;
-  mattrs.push_back({"POSITION", Kind::position, Type::f32, 3, pos.data(), mb.position});
-  if (opt.normals) mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, nrm.data(), mb.normal});
-  mattrs.push_back({"TEXCOORD_0", Kind::texcoord, Type::f32, 2, uv.data(), mb.texcoord});
-  for (int s = 0; s < skin.sets; ++s) {
-    mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, joints_g[size_t(s)].data(), 0});
-    mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, weights_g[size_t(s)].data(), mb.weight});
+  mattrs.push_back({"POSITION", Kind::position, Type::f32, 3, r.pos.data(), mb.position});
+  if (opt.normals) mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, r.nrm.data(), mb.normal});
+  mattrs.push_back({"TEXCOORD_0", Kind::texcoord, Type::f32, 2, r.uv.data(), mb.texcoord});
+  for (int s = 0; s < r.skin.sets; ++s) {
+    mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, r.joints[size_t(s)].data(), 0});
+    if (lossless) mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, r.weights[size_t(s)].data(), 0});
+    else mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::u16, 4, r.codes[size_t(s)].data(), 0});
   }
+  const bool wide_index = r.source16.empty();
+  mattrs.push_back({"_BODY_VERTEX", Kind::generic, wide_index ? Type::f32 : Type::u16, 1,
+                    wide_index ? static_cast<const void*>(r.source_float.data()) : static_cast<const void*>(r.source16.data()), 0});
   const size_t first_private = mattrs.size();
-  mattrs.push_back({"BODY_VERTEX", Kind::generic, wide_index ? Type::u32 : Type::u16, 1,
-                    wide_index ? static_cast<const void*>(split.source.data()) : static_cast<const void*>(src16.data()), 0});
-  if (lossless) mattrs.push_back({"TEXCOORD_SOURCE", Kind::generic, Type::f32, 2, uv_src.data(), 0});
-  const int body_vertex_attr = int(first_private);
+  if (lossless) mattrs.push_back({"TEXCOORD_SOURCE", Kind::generic, Type::f32, 2, r.uv_src.data(), 0});
+  const int body_vertex_attr = int(first_private) - 1;
   dracoio::Method method = lossless || opt.keep_face_order ? dracoio::Method::sequential : dracoio::Method::edgebreaker;
-  dracoio::Encoded mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F, method);
-  // Decode our own stream: it gives exact accessor bounds, the face map the Gaussians
-  // need, and guards the face order (a Draco build that reordered sequential faces would
-  // fail here, not later).
+  dracoio::Encoded mesh_enc = dracoio::encode(Vg, mattrs, r.split.faces.data(), F, method);
+  // Decode our own stream: it gives exact accessor bounds, checks that every body face
+  // comes back, and guards the face order (a Draco build that reordered sequential faces
+  // would fail here, not later).
   std::unique_ptr<dracoio::Decoded> dec =
       std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
+  std::vector<int32_t> file_face;  // unused: the Gaussians bind to canonical faces
+  std::vector<uint8_t> file_corner;
   if (method == dracoio::Method::edgebreaker &&
-      !match_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b, d.file_face, d.file_corner)) {
+      !match_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b, file_face, file_corner)) {
     method = dracoio::Method::sequential;  // a body edgebreaker cannot map back: keep the face order
-    mesh_enc = dracoio::encode(Vg, mattrs, split.faces.data(), F, method);
+    mesh_enc = dracoio::encode(Vg, mattrs, r.split.faces.data(), F, method);
     dec = std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
   }
-  if (method == dracoio::Method::sequential) {
-    if (dec->num_faces() != F || dec->num_points() != Vg || dec->faces() != split.faces) {
-      fail("pack", "Draco changed the mesh's face or vertex order; refusing to write a file whose Gaussians would bind to the wrong faces");
-    }
-    d.file_face.resize(size_t(F));
-    for (int f = 0; f < F; ++f) d.file_face[size_t(f)] = f;
-    d.file_corner.assign(size_t(F), 0);
+  if (method == dracoio::Method::sequential &&
+      (dec->num_faces() != F || dec->num_points() != Vg || dec->faces() != r.split.faces)) {
+    fail("pack", "Draco changed the mesh's face or vertex order; refusing to write a file whose Gaussians would bind to the wrong faces");
   }
   d.sz.edgebreaker = method == dracoio::Method::edgebreaker;
+  d.sz.draco_mesh = true;
   const int Vf = dec->num_points();  // edgebreaker may drop unreferenced points
   d.sz.num_vertices = Vf;
-  std::vector<float> pos_min(3, INFINITY), pos_max(3, -INFINITY);
-  {
-    const std::vector<float> p = dec->floats(mesh_enc.unique_ids[0], 3, "POSITION");
-    for (int g = 0; g < Vf; ++g)
-      for (int k = 0; k < 3; ++k) {
-        pos_min[size_t(k)] = std::min(pos_min[size_t(k)], p[size_t(g) * 3 + k]);
-        pos_max[size_t(k)] = std::max(pos_max[size_t(k)], p[size_t(g) * 3 + k]);
-      }
-  }
   const int mesh_view = d.bin.add_view(mesh_enc.bytes.data(), mesh_enc.bytes.size());
   d.sz.mesh = mesh_enc.bytes.size();
 
   Json prim_attrs, draco_attrs;
   const int idx_acc = d.add_accessor({{"componentType", Vf > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
-  prim_attrs["POSITION"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"},
-                                           {"min", float_array(pos_min.data(), 3)}, {"max", float_array(pos_max.data(), 3)}});
+  prim_attrs["POSITION"] = d.add_accessor(position_bounds(dec->floats(mesh_enc.unique_ids[0], 3, "POSITION"),
+                                                          {{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"}}));
   if (opt.normals) prim_attrs["NORMAL"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"}});
   prim_attrs["TEXCOORD_0"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC2"}});
-  for (int s = 0; s < skin.sets; ++s) {
+  for (int s = 0; s < r.skin.sets; ++s) {
     prim_attrs["JOINTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kUByte}, {"count", Vf}, {"type", "VEC4"}});
-    prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC4"}});
+    Json w = {{"componentType", lossless ? kFloat : kUShort}, {"count", Vf}, {"type", "VEC4"}};
+    if (!lossless) w["normalized"] = true;
+    prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor(w);
   }
+  prim_attrs["_BODY_VERTEX"] = d.add_accessor({{"componentType", wide_index ? kFloat : kUShort}, {"count", Vf}, {"type", "SCALAR"}});
   for (size_t i = 0; i < first_private; ++i) draco_attrs[mattrs[i].name] = mesh_enc.unique_ids[i];
 
-  Json primitive = {{"attributes", prim_attrs},
-                    {"indices", idx_acc},
-                    {"mode", 4},
-                    {"material", 0},
-                    {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", mesh_view}, {"attributes", draco_attrs}}}}}};
-  d.meshes.push_back({{"name", "body"}, {"primitives", Json::array({primitive})}});
-
-  Json mesh_private;
+  Json mesh_private = Json::object();
   for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
   Json m_bits = {{"POSITION", mb.position}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
   if (opt.normals) m_bits["NORMAL"] = mb.normal;
+  d.ext["body"]["draco"] = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
+                            {"quantizationBits", m_bits}, {"method", d.sz.edgebreaker ? "edgebreaker" : "sequential"}};
+  return {{"attributes", prim_attrs},
+          {"indices", idx_acc},
+          {"mode", 4},
+          {"material", 0},
+          {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", mesh_view}, {"attributes", draco_attrs}}}}}};
+}
+
+// The body mesh as plain accessors (no required extension; format/spec.md section 2).
+Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt) {
+  const int Vg = int(r.split.source.size()), F = int(r.split.faces.size() / 3);
+  auto add = [&](const void* data, size_t bytes, int target, Json acc) {
+    acc["bufferView"] = d.bin.add_view(data, bytes, 4, target);
+    d.sz.mesh += bytes;
+    return d.add_accessor(std::move(acc));
+  };
+  Json attrs;
+  attrs["POSITION"] = add(r.pos.data(), r.pos.size() * 4, kArrayBuffer,
+                          position_bounds(r.pos, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}}));
+  if (opt.normals) attrs["NORMAL"] = add(r.nrm.data(), r.nrm.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
+  const bool unit_uv = std::all_of(r.uv.begin(), r.uv.end(), [](float x) { return x >= 0.0f && x <= 1.0f; });
+  if (unit_uv) {  // 16 bits: finer than the Draco default's 12
+    std::vector<uint16_t> q(r.uv.size());
+    for (size_t i = 0; i < q.size(); ++i) q[i] = uint16_t(std::lround(double(r.uv[i]) * 65535.0));
+    attrs["TEXCOORD_0"] = add(q.data(), q.size() * 2, kArrayBuffer, {{"componentType", kUShort}, {"normalized", true}, {"count", Vg}, {"type", "VEC2"}});
+  } else {
+    attrs["TEXCOORD_0"] = add(r.uv.data(), r.uv.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
+  }
+  for (int s = 0; s < r.skin.sets; ++s) {
+    const std::string n = std::to_string(s);
+    attrs["JOINTS_" + n] = add(r.joints[size_t(s)].data(), r.joints[size_t(s)].size(), kArrayBuffer,
+                               {{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
+    attrs["WEIGHTS_" + n] = add(r.codes[size_t(s)].data(), r.codes[size_t(s)].size() * 2, kArrayBuffer,
+                                {{"componentType", kUShort}, {"normalized", true}, {"count", Vg}, {"type", "VEC4"}});
+  }
+  // Float (exact integers below 2^24): a vertex attribute's elements must be 4-byte
+  // aligned, and glTF allows no unsigned int vertex attribute.
+  attrs["_BODY_VERTEX"] = add(r.source_float.data(), r.source_float.size() * 4, kArrayBuffer,
+                              {{"componentType", kFloat}, {"count", Vg}, {"type", "SCALAR"}});
+  int indices;
+  if (Vg <= 65535) {
+    const std::vector<uint16_t> idx(r.split.faces.begin(), r.split.faces.end());
+    indices = add(idx.data(), idx.size() * 2, kElementArrayBuffer, {{"componentType", kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
+  } else {
+    indices = add(r.split.faces.data(), r.split.faces.size() * 4, kElementArrayBuffer, {{"componentType", kUInt}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
+  }
+  d.sz.num_vertices = Vg;
+  return {{"attributes", attrs}, {"indices", indices}, {"mode", 4}, {"material", 0}};
+}
+
+// The skinned, textured body mesh (mesh 0), and the face order the Gaussians bind to:
+// canonical (lossy packs: any tool may reorder the mesh) or the file's (lossless packs,
+// whose sequential Draco stream keeps the body's order).
+void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackOptions& opt) {
+  const BodyModel& b = a.body;
+  const BodyArrays r = body_arrays(a, rest, opt);
+  d.sz.skin_sets = r.skin.sets;
+  d.sz.max_influences = r.skin.max_influences;
+  const bool draco = opt.mesh_compression == MeshCompression::draco;
+  Json primitive = draco ? add_draco_body_mesh(d, a, r, opt) : add_plain_body_mesh(d, r, opt);
+  if (!draco) {
+    d.used.erase(std::find(d.used.begin(), d.used.end(), "KHR_draco_mesh_compression"));
+    d.required.erase(std::find(d.required.begin(), d.required.end(), "KHR_draco_mesh_compression"));
+  }
+  d.meshes.push_back({{"name", "body"}, {"primitives", Json::array({primitive})}});
+  const int F = b.num_faces;
+  if (opt.lossless) {
+    d.file_face.resize(size_t(F));
+    for (int f = 0; f < F; ++f) d.file_face[size_t(f)] = f;
+    d.file_corner.assign(size_t(F), 0);
+  } else {
+    const CanonicalFaces c = canonical_faces(b.faces.data(), F);
+    d.file_face.resize(size_t(F));
+    d.file_corner.resize(size_t(F));
+    for (int k = 0; k < F; ++k) d.file_face[size_t(c.order[size_t(k)])] = k;
+    // Body corner 0 sits at canonical corner (3 - rotation) mod 3.
+    for (int f = 0; f < F; ++f) d.file_corner[size_t(f)] = uint8_t((3 - c.rotation[size_t(f)]) % 3);
+  }
   Json& body = d.ext["body"];
   body["mesh"] = 0;
-  body["vertexCount"] = V;
+  body["vertexCount"] = b.num_verts;
   body["faceCount"] = F;
-  body["draco"] = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
-                   {"quantizationBits", m_bits}, {"method", d.sz.edgebreaker ? "edgebreaker" : "sequential"}};
-  body["skinSets"] = skin.sets;
+  body["skinSets"] = r.skin.sets;
   body["shapeBaked"] = true;
   // Whether the trainer's LBS applied pose correctives (a body with posedirs always does),
   // and which topology supplies them when they are not embedded.
@@ -539,8 +665,8 @@ dracoio::Encoded encode_gaussians(const GlbDoc& d, const BoundGaussians& G, cons
       {"COLOR", Kind::generic, Type::f32, 3, color.data(), gb.color, true},
       {"OPACITY", Kind::generic, Type::f32, 1, opacity.data(), gb.opacity, false}};
   if (!lossless) gattrs.push_back({"ROTATION_LARGEST", Kind::generic, Type::u8, 1, largest.data(), 0, false});
-  // Which corner of its file face is the body face's corner 0 (face frames depend on it).
-  if (d.sz.edgebreaker) gattrs.push_back({"FACE_CORNER", Kind::generic, Type::u8, 1, corner.data(), 0, true});
+  // Which corner of its canonical face is the body face's corner 0 (face frames depend on it).
+  if (!lossless) gattrs.push_back({"FACE_CORNER", Kind::generic, Type::u8, 1, corner.data(), 0, true});
   const dracoio::Encoded genc = dracoio::encode(N, gattrs, nullptr, 0);
   ids = Json::object();
   bits = Json::object();
@@ -566,7 +692,8 @@ void add_gaussians(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
         {"quantizationBits", Json::object()},
         {"scaleEncoding", lossless ? "linear" : "log"},
         {"rotationEncoding", lossless ? "wxyz" : "smallest3"},
-        {"order", lossless ? "original" : "face"}};
+        {"order", lossless ? "original" : "face"},
+        {"faceOrder", lossless ? "file" : "canonical"}};
   if (N == 0) return;  // filtering removed every Gaussian: no point cloud (Draco has no empty one)
   auto face_sorted = [&](std::vector<int32_t> order) {
     if (!lossless)
@@ -658,8 +785,55 @@ void add_compact_pose_correctives(GlbDoc& d, const BodyModel& b, const PoseCorre
   d.ext["body"]["poseCorrectives"] = pc;
 }
 
+// Skin weights of each Gaussian for a skinning-aware splat renderer: its face's three
+// vertex weights blended at the barycentric point of its rest centre projected onto the
+// face (negative coordinates set to zero, then renormalised), the four largest kept, as
+// unsigned-short codes summing to 65535. Returns joints (N, 4) and codes (N, 4).
+void splat_skin(const Avatar& a, const RestBody& rest, const std::vector<float>& means, std::vector<uint8_t>& joints,
+                std::vector<uint16_t>& codes) {
+  const BodyModel& b = a.body;
+  const BoundGaussians& G = a.gaussians;
+  const size_t N = size_t(G.size());
+  joints.assign(N * 4, 0);
+  codes.assign(N * 4, 0);
+  std::vector<double> w(kNumJoints);
+  for (size_t i = 0; i < N; ++i) {
+    const int32_t* fv = &b.faces[size_t(G.face[i]) * 3];
+    Vec3d p[3];
+    for (int c = 0; c < 3; ++c) p[c] = Vec3d(Vec3f::load(&rest.verts[size_t(fv[c]) * 3]));
+    const Vec3d x(Vec3f::load(&means[i * 3]));
+    const Vec3d e1 = p[1] - p[0], e2 = p[2] - p[0], q = x - p[0];
+    const double d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), den = d11 * d22 - d12 * d12;
+    double bary[3] = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+    if (den > 1e-30 * std::max(1.0, d11 * d22)) {
+      const double q1 = dot(q, e1), q2 = dot(q, e2);
+      const double u = (d22 * q1 - d12 * q2) / den, v = (d11 * q2 - d12 * q1) / den;
+      bary[0] = std::max(0.0, 1.0 - u - v);
+      bary[1] = std::max(0.0, u);
+      bary[2] = std::max(0.0, v);
+      const double s = bary[0] + bary[1] + bary[2];
+      for (double& c : bary) c /= s;
+    }
+    std::fill(w.begin(), w.end(), 0.0);
+    for (int c = 0; c < 3; ++c)
+      for (int j = 0; j < kNumJoints; ++j) w[size_t(j)] += bary[c] * b.weights[size_t(fv[c]) * kNumJoints + size_t(j)];
+    std::vector<std::pair<float, int>> list;
+    for (int j = 0; j < kNumJoints; ++j)
+      if (w[size_t(j)] > 0) list.push_back({float(w[size_t(j)]), j});
+    std::stable_sort(list.begin(), list.end(), [](auto& l, auto& r) { return l.first > r.first; });
+    if (list.size() > 4) list.resize(4);
+    if (list.empty()) list.push_back({1.0f, 0});
+    const std::vector<uint16_t> c = weight_codes(list, 16);
+    for (size_t k = 0; k < list.size(); ++k) {
+      joints[i * 4 + k] = uint8_t(list[k].second);
+      codes[i * 4 + k] = c[k];
+    }
+  }
+}
+
 // A KHR_gaussian_splatting primitive of the rest-pose world Gaussians (the face frames of
-// the baked rest mesh), for viewers that know only that extension.
+// the baked rest mesh), for viewers that know only that extension; skinned by the body's
+// skin (per-splat JOINTS_0 / WEIGHTS_0), so a skinning-aware splat renderer moves them.
 void add_rest_splats(GlbDoc& d, const Avatar& a, const RestBody& rest) {
   const BoundGaussians& G = a.gaussians;
   const int N = G.size();
@@ -673,33 +847,32 @@ void add_rest_splats(GlbDoc& d, const Avatar& a, const RestBody& rest) {
     xyzw[size_t(i) * 4 + 3] = float(q[0] / n);
     for (int k = 0; k < 3; ++k) sh0[size_t(i) * 3 + k] = float((G.color[size_t(i) * 3 + k] - 0.5) / 0.28209479177387814);
   }
-  std::vector<float> mn(3, INFINITY), mx(3, -INFINITY);
-  for (int i = 0; i < N; ++i)
-    for (int k = 0; k < 3; ++k) {
-      mn[size_t(k)] = std::min(mn[size_t(k)], means[size_t(i) * 3 + k]);
-      mx[size_t(k)] = std::max(mx[size_t(k)], means[size_t(i) * 3 + k]);
-    }
-  if (N == 0) mn = mx = {0.0f, 0.0f, 0.0f};
+  std::vector<uint8_t> joints;
+  std::vector<uint16_t> codes;
+  splat_skin(a, rest, means, joints, codes);
   const size_t before = d.bin.bytes().size();
-  auto view_acc = [&](const std::vector<float>& data, const char* type, int count) {
-    const int v = d.bin.add_view(data.data(), data.size() * sizeof(float), 4, kArrayBuffer);
-    return d.add_accessor({{"bufferView", v}, {"componentType", kFloat}, {"count", count}, {"type", type}});
+  auto view_acc = [&](const void* data, size_t bytes, int type, const char* shape, bool normalized = false) {
+    const int v = d.bin.add_view(data, bytes, 4, kArrayBuffer);
+    Json acc = {{"bufferView", v}, {"componentType", type}, {"count", N}, {"type", shape}};
+    if (normalized) acc["normalized"] = true;
+    return d.add_accessor(acc);
   };
   Json sattrs;
-  sattrs["POSITION"] = view_acc(means, "VEC3", N);
-  d.accessors[size_t(sattrs["POSITION"].get<int>())]["min"] = float_array(mn.data(), 3);
-  d.accessors[size_t(sattrs["POSITION"].get<int>())]["max"] = float_array(mx.data(), 3);
-  sattrs["KHR_gaussian_splatting:ROTATION"] = view_acc(xyzw, "VEC4", N);
-  sattrs["KHR_gaussian_splatting:SCALE"] = view_acc(scales, "VEC3", N);
-  sattrs["KHR_gaussian_splatting:OPACITY"] = view_acc(op, "SCALAR", N);
-  sattrs["KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"] = view_acc(sh0, "VEC3", N);
+  sattrs["POSITION"] = d.add_accessor(position_bounds(means, {{"bufferView", d.bin.add_view(means.data(), means.size() * 4, 4, kArrayBuffer)},
+                                                             {"componentType", kFloat}, {"count", N}, {"type", "VEC3"}}));
+  sattrs["KHR_gaussian_splatting:ROTATION"] = view_acc(xyzw.data(), xyzw.size() * 4, kFloat, "VEC4");
+  sattrs["KHR_gaussian_splatting:SCALE"] = view_acc(scales.data(), scales.size() * 4, kFloat, "VEC3");
+  sattrs["KHR_gaussian_splatting:OPACITY"] = view_acc(op.data(), op.size() * 4, kFloat, "SCALAR");
+  sattrs["KHR_gaussian_splatting:SH_DEGREE_0_COEF_0"] = view_acc(sh0.data(), sh0.size() * 4, kFloat, "VEC3");
+  sattrs["JOINTS_0"] = view_acc(joints.data(), joints.size(), kUByte, "VEC4");
+  sattrs["WEIGHTS_0"] = view_acc(codes.data(), codes.size() * 2, kUShort, "VEC4", true);
   d.sz.splats = d.bin.bytes().size() - before;
-  d.meshes.push_back({{"name", "gaussians_rest_pose"},
+  d.meshes.push_back({{"name", "gaussians"},
                       {"primitives", Json::array({{{"attributes", sattrs},
                                                    {"mode", 0},
                                                    {"extensions", {{"KHR_gaussian_splatting", {{"kernel", "ellipse"}, {"colorSpace", "srgb_rec709_display"}}}}}}})}});
   const int splat_node = int(d.nodes.size());
-  d.nodes.push_back({{"name", "gaussians_rest_pose"}, {"mesh", 1}});
+  d.nodes.push_back({{"name", "gaussians"}, {"mesh", 1}, {"skin", 0}});
   d.scene_nodes.push_back(splat_node);
   d.used.push_back("KHR_gaussian_splatting");
   d.ext["splats"] = {{"mesh", 1}, {"node", splat_node}};
@@ -714,6 +887,9 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
     fail("avatar", "body model has no UV map (vt/ft), which the texture needs");
   }
   if (opt.lossless && opt.lod_tiers > 1) fail("--lod", "tiers reorder the Gaussians; --lossless keeps the trainer's order");
+  if (opt.lossless && opt.mesh_compression != MeshCompression::draco) {
+    fail("--mesh-compression", "--lossless stores bit-exact Draco streams; 'none' is for engines (drop one of the two)");
+  }
   if (opt.lossless && opt.texture_size > 0 && (opt.texture_size != a.texture.width || opt.texture_size != a.texture.height)) {
     fail("--texture-size", "--lossless keeps the trained texture (" + std::to_string(a.texture.width) + " x " +
                                std::to_string(a.texture.height) + "); a different size cannot be lossless");
@@ -742,9 +918,9 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   if (opt.khr_gaussian_splatting && a.gaussians.size() > 0) add_rest_splats(d, a, rest);  // glTF has no empty accessor
 
   Json gltf;
-  gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v1)"}};
+  gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v" + std::to_string(kAvatarFormatVersion) + ")"}};
   gltf["extensionsUsed"] = d.used;
-  gltf["extensionsRequired"] = d.required;
+  if (!d.required.empty()) gltf["extensionsRequired"] = d.required;
   gltf["extensions"] = {{kAvatarExtension, d.ext}};
   gltf["scene"] = 0;
   gltf["scenes"] = Json::array({{{"name", "avatar"}, {"nodes", d.scene_nodes}}});

@@ -1,8 +1,8 @@
 // Avatar -> .glb (format/spec.md). The file is a standard skinned, textured glTF 2.0 mesh
-// (Draco-compressed: edgebreaker, or sequential to keep the body's face order) plus the
+// (Draco-compressed, or plain accessors that any glTF reader opens) plus the
 // HAHA_gaussian_avatar extension holding the face-bound Gaussians (a Draco point cloud,
-// their faces given in the file's face order) and what a loader needs to repose and
-// render them exactly like the trainer.
+// their faces named in the canonical face order, so tools may rewrite the mesh) and what
+// a loader needs to repose and render them exactly like the trainer.
 #pragma once
 
 #include <cstdint>
@@ -18,7 +18,10 @@ namespace haha {
 inline constexpr const char* kAvatarExtension = "HAHA_gaussian_avatar";
 // Version 2: edgebreaker meshes (faces in the encoder's order, FACE_CORNER), rest joints
 // from the inverse bind matrices when there is no joint regressor, optional normals.
-inline constexpr int kAvatarFormatVersion = 2;
+// Version 3: Draco-free meshes, the public _BODY_VERTEX attribute, Gaussians bound to the
+// canonical face order (any tool may reorder the mesh), weights summing exactly to one,
+// skinned KHR_gaussian_splatting splats.
+inline constexpr int kAvatarFormatVersion = 3;
 inline constexpr int kOldestAvatarFormatVersion = 1;  // readers still load version 1
 
 // Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).
@@ -56,6 +59,12 @@ enum class PoseCorrectives {
   dense,    // every value: int16 with a per-feature scale, float32 with `lossless` (large)
 };
 
+// How the body mesh is stored (format/spec.md section 2).
+enum class MeshCompression {
+  draco,  // KHR_draco_mesh_compression, a required extension: about 3x smaller
+  none,   // plain accessors, no required extension: any glTF reader (Blender, Godot) opens it
+};
+
 struct PackOptions {
   // Raw float32 everywhere, a float32 copy of the texture and of the UVs: every trained
   // parameter and every stored body array comes back bit-exact. Ignores the bit settings.
@@ -81,6 +90,7 @@ struct PackOptions {
   PoseCorrectiveCodec pose_corrective_codec;
   // Lossy mode drops skinning weights below this and renormalises (lossless keeps all).
   float min_skin_weight = 1e-4f;
+  MeshCompression mesh_compression = MeshCompression::draco;
   // Draco's sequential mesh encoding, which keeps the body's face order (about 3x larger
   // than edgebreaker). Lossless packs always use it.
   bool keep_face_order = false;
@@ -109,6 +119,7 @@ struct PackedSizes {
   int skin_sets = 0;          // JOINTS_n/WEIGHTS_n sets shipped
   int max_influences = 0;     // largest number of nonzero weights of a vertex in the body
   bool edgebreaker = false;   // mesh encoded with edgebreaker (faces in the encoder's order)
+  bool draco_mesh = false;    // mesh compressed with KHR_draco_mesh_compression
   int lod_tiers = 0;          // Gaussian tiers stored (0: one point cloud)
 };
 

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "format/avatar_validate.h"
+#include "format/canonical_faces.h"
 #include "format/draco_io.h"
 #include "format/gaussian_lod.h"
 #include "format/glb.h"
@@ -116,61 +117,40 @@ class AvatarReader {
     jb_ = &member(*ext_, "body", where_, E);
   }
 
-  // The Draco body mesh: rest vertices, faces, UVs (vertices split at seams are merged
-  // back through BODY_VERTEX).
+  // The body mesh (Draco or plain accessors): rest vertices, faces, UVs (vertices split at
+  // seams are merged back through _BODY_VERTEX), and the faces in the order the Gaussians
+  // name them.
   void body_mesh() {
     const Json& jb = *jb_;
     const int64_t mesh_index = rd_.integer(jb, "mesh", B, 0, kMaxCount);
     V_ = rd_.integer(jb, "vertexCount", B, 1, kMaxCount);
     F_ = rd_.integer(jb, "faceCount", B, 1, kMaxCount);
+    skin_sets_ = rd_.integer(*jb_, "skinSets", B, 1, 14);
     const Json& mesh = element(root_, "meshes", mesh_index, where_);
     const Json& prims = member(mesh, "primitives", where_, "meshes[" + std::to_string(mesh_index) + "]");
     if (!prims.is_array() || prims.empty()) fail(where_, "body mesh: no primitives");
     const Json& prim = prims[0];
     P_ = "meshes[" + std::to_string(mesh_index) + "].primitives[0]";
+    if (const Json* mode = find_member(prim, "mode"); mode && as_int(*mode, where_, P_ + ".mode", 0, 6) != 4) {
+      fail(where_, P_ + ": not a triangle list (mode " + mode->dump() + ")");
+    }
+    pattrs_ = &member(prim, "attributes", where_, P_);
     const Json* pext = find_member(prim, "extensions");
     const Json* kdraco = pext ? find_member(*pext, "KHR_draco_mesh_compression") : nullptr;
-    if (!kdraco) fail(where_, P_ + ": not Draco-compressed (KHR_draco_mesh_compression missing)");
-    const Json& jd = member(jb, "draco", where_, B);
-    if (rd_.integer(*kdraco, "bufferView", P_ + ".KHR_draco_mesh_compression", 0, kMaxCount) !=
-        rd_.integer(jd, "bufferView", B + ".draco", 0, kMaxCount)) {
-      fail(where_, B + ".draco: bufferView differs from the primitive's Draco stream");
-    }
-    const glb::ByteSpan mesh_bytes = rd_.view(jd, "bufferView", "crc32", B + ".draco");
-    info_.sizes.mesh = mesh_bytes.size;
-    const Json& pattrs = member(prim, "attributes", where_, P_);
-    const Json& pos_acc = element(root_, "accessors", as_int(member(pattrs, "POSITION", where_, P_ + ".attributes"), where_,
-                                                             P_ + ".attributes.POSITION", 0, kMaxCount), where_);
-    const int64_t gltf_verts = as_int(member(pos_acc, "count", where_, "POSITION accessor"), where_, "POSITION accessor.count", 1, kMaxCount);
-    mesh_dec_ = std::make_unique<dracoio::Decoded>(mesh_bytes.data, mesh_bytes.size, true, where_, "body mesh", gltf_verts, F_);
-    const dracoio::Decoded& dec = *mesh_dec_;
-    Vg_ = dec.num_points();
-    edgebreaker_ = dec.method() == dracoio::Method::edgebreaker;
-    info_.sizes.edgebreaker = edgebreaker_;
-    if (edgebreaker_ && info_.version < 2) fail(where_, "body mesh: edgebreaker-encoded, which version 1 files never are");
-    if (dec.num_faces() != F_) {
-      fail(where_, "body mesh: Draco stream has " + std::to_string(dec.num_faces()) + " faces, the file says " + std::to_string(F_));
-    }
-    if (Vg_ < V_) fail(where_, "body mesh: fewer glTF vertices than body vertices");
-    dattrs_ = &member(*kdraco, "attributes", where_, P_ + ".KHR_draco_mesh_compression");
-    const std::vector<float> pos = dec.floats(draco_id(*dattrs_, "POSITION", P_), 3, "POSITION");
-    const std::vector<float> uvg = dec.floats(draco_id(*dattrs_, "TEXCOORD_0", P_), 2, "TEXCOORD_0");
-    if (const Json* m = find_member(jd, "method")) {
-      const std::string method = as_string(*m, where_, B + ".draco.method");
-      if (method != (edgebreaker_ ? "edgebreaker" : "sequential")) {
-        fail(where_, B + ".draco.method: says '" + method + "' but the Draco stream is " + (edgebreaker_ ? "edgebreaker" : "sequential"));
-      }
-    }
-    const Json& mpriv = member(jd, "attributes", where_, B + ".draco");
-    source_ = dec.ints(draco_id(mpriv, "BODY_VERTEX", B + ".draco.attributes"), 1, "BODY_VERTEX");
-    std::vector<float> uv_src;
-    if (find_member(mpriv, "TEXCOORD_SOURCE")) {
-      uv_src = dec.floats(draco_id(mpriv, "TEXCOORD_SOURCE", B + ".draco.attributes"), 2, "TEXCOORD_SOURCE");
-    }
-    if (const Json* qb = find_member(jd, "quantizationBits")) {
+    jd_ = find_member(jb, "draco");
+    if (info_.version < 3 && (!kdraco || !jd_)) fail(where_, P_ + ": not Draco-compressed (KHR_draco_mesh_compression missing)");
+    faces_in_file_order_ = info_.version < 3;
+    if (kdraco) draco_body_mesh(*kdraco);
+    else plain_body_mesh(prim);
+    info_.sizes.draco_mesh = kdraco != nullptr;
+    if (const Json* qb = jd_ ? find_member(*jd_, "quantizationBits") : nullptr) {
       if (qb->is_object())
         for (auto& [k, v] : qb->items()) info_.mesh_bits[k] = int(as_int(v, where_, B + ".draco.quantizationBits." + k, 0, 30));
     }
+    if (int64_t(m_.faces.size()) != F_ * 3) {
+      fail(where_, "body mesh: " + std::to_string(m_.faces.size() / 3) + " faces, the file says " + std::to_string(F_));
+    }
+    if (Vg_ < V_) fail(where_, "body mesh: fewer glTF vertices than body vertices");
 
     BodyModel& body = a_.body;
     body.source = where_;
@@ -179,60 +159,177 @@ class AvatarReader {
     body.v_template.assign(size_t(V_) * 3, 0.0f);
     std::vector<char> seen(size_t(V_), 0);
     for (int gi = 0; gi < Vg_; ++gi) {
-      const int64_t s = source_[size_t(gi)];
-      if (s < 0 || s >= V_) fail(where_, "body mesh: BODY_VERTEX " + std::to_string(s) + " out of range [0, " + std::to_string(V_) + ")");
+      const int64_t s = m_.source[size_t(gi)];
+      if (s < 0 || s >= V_) fail(where_, "body mesh: _BODY_VERTEX " + std::to_string(s) + " out of range [0, " + std::to_string(V_) + ")");
       if (!seen[size_t(s)]) {
         seen[size_t(s)] = 1;
-        for (int k = 0; k < 3; ++k) body.v_template[size_t(s) * 3 + k] = pos[size_t(gi) * 3 + k];
+        for (int k = 0; k < 3; ++k) body.v_template[size_t(s) * 3 + k] = m_.pos[size_t(gi) * 3 + k];
       }
     }
     for (int64_t v = 0; v < V_; ++v)
       if (!seen[size_t(v)]) fail(where_, "body mesh: body vertex " + std::to_string(v) + " has no glTF vertex");
-    const std::vector<int32_t> gfaces = dec.faces();
-    body.faces.resize(gfaces.size());
-    for (size_t c = 0; c < gfaces.size(); ++c) body.faces[c] = int32_t(source_[size_t(gfaces[c])]);
-    body.ft = gfaces;
+    body.faces.resize(m_.faces.size());
+    for (size_t c = 0; c < m_.faces.size(); ++c) body.faces[c] = int32_t(m_.source[size_t(m_.faces[c])]);
+    body.ft = m_.faces;
     body.vt.resize(size_t(Vg_) * 2);
     for (int gi = 0; gi < Vg_; ++gi) {
-      if (!uv_src.empty()) {
-        body.vt[size_t(gi) * 2] = uv_src[size_t(gi) * 2];
-        body.vt[size_t(gi) * 2 + 1] = uv_src[size_t(gi) * 2 + 1];
+      if (!m_.uv_src.empty()) {
+        body.vt[size_t(gi) * 2] = m_.uv_src[size_t(gi) * 2];
+        body.vt[size_t(gi) * 2 + 1] = m_.uv_src[size_t(gi) * 2 + 1];
       } else {
-        body.vt[size_t(gi) * 2] = uvg[size_t(gi) * 2];
-        body.vt[size_t(gi) * 2 + 1] = 1.0f - uvg[size_t(gi) * 2 + 1];  // back to the body model's v-up UVs
+        body.vt[size_t(gi) * 2] = m_.uv[size_t(gi) * 2];
+        body.vt[size_t(gi) * 2 + 1] = 1.0f - m_.uv[size_t(gi) * 2 + 1];  // back to the body model's v-up UVs
       }
+    }
+  }
+
+  // The KHR_draco_mesh_compression stream into m_ (versions 1-2: the vertex map is the
+  // private BODY_VERTEX; version 3: the primitive's _BODY_VERTEX).
+  void draco_body_mesh(const Json& kdraco) {
+    const std::string K = P_ + ".KHR_draco_mesh_compression";
+    const int64_t stream_view = rd_.integer(kdraco, "bufferView", K, 0, kMaxCount);
+    glb::ByteSpan mesh_bytes;
+    if (jd_) {
+      if (rd_.integer(*jd_, "bufferView", B + ".draco", 0, kMaxCount) != stream_view) {
+        fail(where_, B + ".draco: bufferView differs from the primitive's Draco stream");
+      }
+      mesh_bytes = rd_.view(*jd_, "bufferView", "crc32", B + ".draco");
+    } else {
+      mesh_bytes = glb::buffer_view(g_, int(stream_view), where_);  // rewritten by a tool: no checksum
+    }
+    info_.sizes.mesh = mesh_bytes.size;
+    const Json& pos_acc = element(root_, "accessors", as_int(member(*pattrs_, "POSITION", where_, P_ + ".attributes"), where_,
+                                                             P_ + ".attributes.POSITION", 0, kMaxCount), where_);
+    const int64_t gltf_verts = as_int(member(pos_acc, "count", where_, "POSITION accessor"), where_, "POSITION accessor.count", 1, kMaxCount);
+    const dracoio::Decoded dec(mesh_bytes.data, mesh_bytes.size, true, where_, "body mesh", gltf_verts, F_);
+    Vg_ = dec.num_points();
+    edgebreaker_ = dec.method() == dracoio::Method::edgebreaker;
+    info_.sizes.edgebreaker = edgebreaker_;
+    if (edgebreaker_ && info_.version < 2) fail(where_, "body mesh: edgebreaker-encoded, which version 1 files never are");
+    if (dec.num_faces() != F_) {
+      fail(where_, "body mesh: Draco stream has " + std::to_string(dec.num_faces()) + " faces, the file says " + std::to_string(F_));
+    }
+    const Json& dattrs = member(kdraco, "attributes", where_, K);
+    m_.pos = dec.floats(draco_id(dattrs, "POSITION", K), 3, "POSITION");
+    m_.uv = dec.floats(draco_id(dattrs, "TEXCOORD_0", K), 2, "TEXCOORD_0");
+    if (jd_) {
+      if (const Json* m = find_member(*jd_, "method")) {
+        const std::string method = as_string(*m, where_, B + ".draco.method");
+        if (method != (edgebreaker_ ? "edgebreaker" : "sequential")) {
+          fail(where_, B + ".draco.method: says '" + method + "' but the Draco stream is " + (edgebreaker_ ? "edgebreaker" : "sequential"));
+        }
+      }
+    }
+    const Json* mpriv = jd_ ? find_member(*jd_, "attributes") : nullptr;
+    if (info_.version < 3) {
+      m_.source = dec.ints(draco_id(member(*jd_, "attributes", where_, B + ".draco"), "BODY_VERTEX", B + ".draco.attributes"), 1, "BODY_VERTEX");
+    } else {
+      const int id = draco_id(dattrs, "_BODY_VERTEX", K);
+      if (dec.is_float(id)) {  // exact integers in float (large meshes, or re-encoded plain files)
+        for (float x : dec.floats(id, 1, "_BODY_VERTEX")) {
+          if (x != std::floor(x) || !(std::fabs(x) < 2147483648.0f)) fail(where_, "body mesh: _BODY_VERTEX holds a non-integer value");
+          m_.source.push_back(int64_t(x));
+        }
+      } else {
+        m_.source = dec.ints(id, 1, "_BODY_VERTEX");
+      }
+    }
+    if (mpriv && find_member(*mpriv, "TEXCOORD_SOURCE")) {
+      m_.uv_src = dec.floats(draco_id(*mpriv, "TEXCOORD_SOURCE", B + ".draco.attributes"), 2, "TEXCOORD_SOURCE");
+    }
+    m_.faces = dec.faces();
+    for (int64_t s = 0; s < skin_sets_; ++s) {
+      const std::string jn = "JOINTS_" + std::to_string(s), wn = "WEIGHTS_" + std::to_string(s);
+      m_.joints.push_back(dec.ints(draco_id(dattrs, jn, K), 4, jn));
+      // The accessor says how the stream stores them: float, or normalized unsigned ints.
+      const Json& wacc = element(root_, "accessors", as_int(member(*pattrs_, wn.c_str(), where_, P_ + ".attributes"), where_,
+                                                            P_ + ".attributes." + wn, 0, kMaxCount), where_);
+      const int64_t type = as_int(member(wacc, "componentType", where_, wn + " accessor"), where_, wn + " accessor.componentType", 5120, 5126);
+      if (type == 5126) {
+        m_.weights.push_back(dec.floats(draco_id(dattrs, wn, K), 4, wn));
+      } else if (type == 5121 || type == 5123) {
+        const double full = type == 5121 ? 255.0 : 65535.0;
+        std::vector<float> w;
+        for (int64_t c : dec.ints(draco_id(dattrs, wn, K), 4, wn)) w.push_back(float(double(c) / full));
+        m_.weights.push_back(std::move(w));
+      } else {
+        fail(where_, wn + " accessor: componentType " + std::to_string(type) + " is not a glTF weight type");
+      }
+    }
+  }
+
+  // Plain accessors into m_ (version 3; any layout glTF allows, e.g. as rewritten by tools).
+  void plain_body_mesh(const Json& prim) {
+    auto attribute = [&](const char* name, int comps) {
+      return glb::read_accessor(g_, as_int(member(*pattrs_, name, where_, P_ + ".attributes"), where_, P_ + ".attributes." + name, 0, kMaxCount),
+                                comps, where_, P_ + ".attributes." + name);
+    };
+    auto to_floats = [](const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); };
+    const glb::AccessorValues pos = attribute("POSITION", 3);
+    if (pos.count > kMaxCount) fail(where_, "body mesh: too many vertices");
+    Vg_ = int(pos.count);
+    m_.pos = to_floats(pos.values);
+    auto check_count = [&](const glb::AccessorValues& a, const char* name) {
+      if (a.count != pos.count) fail(where_, std::string("body mesh: ") + name + " has " + std::to_string(a.count) + " values, POSITION " + std::to_string(pos.count));
+      return a;
+    };
+    m_.uv = to_floats(check_count(attribute("TEXCOORD_0", 2), "TEXCOORD_0").values);
+    auto integers = [&](const glb::AccessorValues& a, const std::string& name) {
+      if (a.component_type == 5126 || a.normalized) {
+        for (double x : a.values)
+          if (x != std::floor(x) || !(std::fabs(x) < 2147483648.0)) fail(where_, "body mesh: " + name + " holds a non-integer value");
+      }
+      return std::vector<int64_t>(a.values.begin(), a.values.end());
+    };
+    m_.source = integers(check_count(attribute("_BODY_VERTEX", 1), "_BODY_VERTEX"), "_BODY_VERTEX");
+    for (int64_t s = 0; s < skin_sets_; ++s) {
+      const std::string jn = "JOINTS_" + std::to_string(s), wn = "WEIGHTS_" + std::to_string(s);
+      m_.joints.push_back(integers(check_count(attribute(jn.c_str(), 4), jn.c_str()), jn));
+      m_.weights.push_back(to_floats(check_count(attribute(wn.c_str(), 4), wn.c_str()).values));
+    }
+    if (const Json* ind = find_member(prim, "indices")) {
+      const glb::AccessorValues idx = glb::read_accessor(g_, as_int(*ind, where_, P_ + ".indices", 0, kMaxCount), 1, where_, P_ + ".indices");
+      for (double x : idx.values) {
+        if (!(x >= 0 && x < double(Vg_))) fail(where_, "body mesh: index " + std::to_string(int64_t(x)) + " out of range");
+        m_.faces.push_back(int32_t(x));
+      }
+    } else {
+      for (int i = 0; i < Vg_; ++i) m_.faces.push_back(i);
+    }
+    for (int64_t i = 0; i < pos.count; ++i) {
+      for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(m_.pos[size_t(i) * 3 + k])) fail(where_, "body mesh: non-finite POSITION at vertex " + std::to_string(i));
+    }
+    if (m_.faces.size() % 3) fail(where_, "body mesh: index count is not a multiple of 3");
+    info_.sizes.mesh = 0;
+    for (auto& [k, v] : pattrs_->items()) {
+      const Json& acc = element(root_, "accessors", as_int(v, where_, P_ + ".attributes." + k, 0, kMaxCount), where_);
+      if (const Json* bv = find_member(acc, "bufferView")) info_.sizes.mesh += glb::buffer_view(g_, int(as_int(*bv, where_, "accessor.bufferView", 0, kMaxCount)), where_).size;
     }
   }
 
   // Skinning weights: every JOINTS_n/WEIGHTS_n set scattered back to the dense (V, 55) array.
   void skin_weights() {
     BodyModel& body = a_.body;
-    skin_sets_ = rd_.integer(*jb_, "skinSets", B, 1, 14);
     body.weights.assign(size_t(V_) * kNumJoints, 0.0f);
-    const bool quantized_weights = info_.mesh_bits.count("WEIGHTS") && info_.mesh_bits["WEIGHTS"] > 0;
+    // Versions 1-2 stored Draco-quantized float weights whose sums are off by up to ~1e-3.
+    const bool renormalise = info_.version < 3 && info_.mesh_bits.count("WEIGHTS") && info_.mesh_bits["WEIGHTS"] > 0;
     std::vector<char> done(size_t(V_), 0);
-    std::vector<std::vector<int64_t>> js(static_cast<size_t>(skin_sets_));
-    std::vector<std::vector<float>> ws(static_cast<size_t>(skin_sets_));
-    for (int64_t s = 0; s < skin_sets_; ++s) {
-      const std::string jn = "JOINTS_" + std::to_string(s), wn = "WEIGHTS_" + std::to_string(s);
-      js[size_t(s)] = mesh_dec_->ints(draco_id(*dattrs_, jn, P_), 4, jn);
-      ws[size_t(s)] = mesh_dec_->floats(draco_id(*dattrs_, wn, P_), 4, wn);
-    }
     for (int gi = 0; gi < Vg_; ++gi) {
-      const size_t v = size_t(source_[size_t(gi)]);
+      const size_t v = size_t(m_.source[size_t(gi)]);
       if (done[v]) continue;  // seam duplicates carry the same skin
       done[v] = 1;
       double sum = 0;
       for (int64_t s = 0; s < skin_sets_; ++s)
         for (int k = 0; k < 4; ++k) {
-          const int64_t j = js[size_t(s)][size_t(gi) * 4 + k];
-          const float w = ws[size_t(s)][size_t(gi) * 4 + k];
+          const int64_t j = m_.joints[size_t(s)][size_t(gi) * 4 + k];
+          const float w = m_.weights[size_t(s)][size_t(gi) * 4 + k];
           if (j < 0 || j >= kNumJoints) fail(where_, "body mesh: " + ("JOINTS_" + std::to_string(s)) + " index " + std::to_string(j) + " out of range");
           if (!std::isfinite(w) || w < -1e-3f) fail(where_, "body mesh: invalid skinning weight at vertex " + std::to_string(v));
           if (w != 0.0f) body.weights[v * kNumJoints + size_t(j)] += w;
           sum += w;
         }
-      if (quantized_weights) {  // quantization moved the sum off 1: renormalise (and drop noise)
+      if (renormalise) {  // quantization moved the sum off 1: renormalise (and drop noise)
         if (!(sum > 0)) fail(where_, "body mesh: vertex " + std::to_string(v) + " has no skinning weight");
         for (int j = 0; j < kNumJoints; ++j) {
           float& w = body.weights[v * kNumJoints + size_t(j)];
@@ -240,6 +337,8 @@ class AvatarReader {
         }
       }
     }
+    m_.joints.clear();
+    m_.weights.clear();
   }
 
   // Joint parents from the node tree of the skin's joints.
@@ -436,6 +535,22 @@ class AvatarReader {
       if (qb->is_object())
         for (auto& [k, v] : qb->items()) info_.gaussian_bits[k] = int(as_int(v, where_, G + ".quantizationBits." + k, 0, 30));
     }
+    if (const Json* fo = find_member(jg, "faceOrder")) {
+      const std::string order = as_string(*fo, where_, G + ".faceOrder");
+      if (order != "file" && order != "canonical") fail(where_, G + ".faceOrder: unknown '" + order + "'");
+      if (order == "canonical" && info_.version < 3) fail(where_, G + ".faceOrder: 'canonical' is not in version " + std::to_string(info_.version));
+      faces_in_file_order_ = order == "file";
+    } else if (info_.version >= 3) {
+      fail(where_, G + ".faceOrder: missing");
+    }
+    // Faces in the file's order hold only while the mesh is the one haha wrote (body.draco
+    // names its stream and checksum); a tool that rewrote it may have reordered them.
+    if (faces_in_file_order_ && !jd_) {
+      fail(where_, G + ".faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no " + B +
+                       ".draco); repack without --lossless for files that tools may rewrite");
+    }
+    info_.gaussian_face_order = faces_in_file_order_ ? "file" : "canonical";
+    if (!faces_in_file_order_) canonical_face_order();
     const Json* tiers = find_member(jg, "tiers");
     if (N_ == 0) {  // no point cloud: every Gaussian was filtered away
       if (find_member(jg, "bufferView") || tiers) fail(where_, G + ": a point cloud for zero Gaussians");
@@ -478,7 +593,7 @@ class AvatarReader {
     std::vector<int64_t> corners;
     for (const Stream& st : streams) decode_gaussians(st.bytes, st.count, corners);
     N_ = a_.gaussians.size();  // the Gaussians read (a prefix of tiers may be fewer)
-    if (edgebreaker_) face_corners(corners);
+    if (face_corner_stored()) face_corners(corners);
     BoundGaussians& bg = a_.gaussians;
     if (info_.scale_encoding == "log") {
       for (float& x : bg.scale) {
@@ -516,7 +631,7 @@ class AvatarReader {
       }
       bg.face.push_back(int32_t(f));
     }
-    if (edgebreaker_) {
+    if (face_corner_stored()) {
       const std::vector<int64_t> c = gdec.ints(draco_id(gids, "FACE_CORNER", GA), 1, "FACE_CORNER");
       corners.insert(corners.end(), c.begin(), c.end());
     }
@@ -546,7 +661,27 @@ class AvatarReader {
     append(bg.opacity, gdec.floats(draco_id(gids, "OPACITY", GA), 1, "OPACITY"));
   }
 
-  // Edgebreaker rotated the corners of the faces: turn each face that carries Gaussians
+  // Whether each Gaussian carries FACE_CORNER: its face's corners may be rotated.
+  bool face_corner_stored() const { return !faces_in_file_order_ || edgebreaker_; }
+
+  // The faces (and their UV corners) in the canonical order the Gaussians name
+  // (format/canonical_faces.h): each rotated to its smallest triple, sorted.
+  void canonical_face_order() {
+    BodyModel& body = a_.body;
+    const CanonicalFaces c = canonical_faces(body.faces.data(), body.num_faces);
+    std::vector<int32_t> faces(body.faces.size()), ft(body.ft.size());
+    for (size_t k = 0; k < c.order.size(); ++k) {
+      const size_t f = size_t(c.order[k]), r = c.rotation[f];
+      for (size_t i = 0; i < 3; ++i) {
+        faces[k * 3 + i] = body.faces[f * 3 + (r + i) % 3];
+        ft[k * 3 + i] = body.ft[f * 3 + (r + i) % 3];
+      }
+    }
+    body.faces = std::move(faces);
+    body.ft = std::move(ft);
+  }
+
+  // The faces' corners may be rotated (edgebreaker, canonical order): turn each face that carries Gaussians
   // back so its corner 0 is the body's (face frames depend on the corner order).
   void face_corners(const std::vector<int64_t>& corner) {
     std::vector<int8_t> done(size_t(F_), -1);
@@ -642,15 +777,23 @@ class AvatarReader {
   Avatar& a_;
   const Json* ext_ = nullptr;     // the HAHA_gaussian_avatar object
   const Json* jb_ = nullptr;      // its "body"
-  const Json* dattrs_ = nullptr;  // the body primitive's Draco attribute ids
+  const Json* pattrs_ = nullptr;  // the body primitive's attributes
+  const Json* jd_ = nullptr;      // body.draco (absent: a plain mesh, or a mesh rewritten by a tool)
+  // The body mesh's per-glTF-vertex arrays, from Draco or from accessors.
+  struct MeshArrays {
+    std::vector<float> pos, uv, uv_src;                // (Vg, 3), (Vg, 2), lossless: (Vg, 2)
+    std::vector<int64_t> source;                       // body vertex of each glTF vertex
+    std::vector<int32_t> faces;                        // (F, 3) glTF vertices
+    std::vector<std::vector<int64_t>> joints;          // per set (Vg, 4)
+    std::vector<std::vector<float>> weights;           // per set (Vg, 4), decoded
+  } m_;
   const Json* skin_ = nullptr;
   const Json* gids_ = nullptr;    // the Gaussians' Draco attribute ids
   std::string P_;                 // JSON path of the body primitive
-  std::unique_ptr<dracoio::Decoded> mesh_dec_;
-  std::vector<int64_t> source_;   // body vertex of each glTF vertex
   int64_t V_ = 0, F_ = 0, N_ = 0, skin_sets_ = 0;
   int Vg_ = 0;
   bool edgebreaker_ = false;  // faces in the encoder's order, corners rotated
+  bool faces_in_file_order_ = true;  // gaussians.faceOrder "file" (else "canonical")
 };
 
 UnpackedAvatar unpack_impl(const uint8_t* data, size_t size, const std::string& where, const UnpackOptions& opt) {

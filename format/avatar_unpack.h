@@ -8,7 +8,8 @@
 // translation only. avatar.betas / avatar.expression hold the trained values for reference.
 // Body fields the file does not carry (hand PCA, landmarks) are empty; posedirs are
 // present only if the file embeds pose correctives. In the lossy default the UV map is
-// one UV per glTF vertex (vt) with ft = the glTF faces (same corner values as packed).
+// one UV per glTF vertex (vt) with ft = the glTF faces (same corner values as packed), the
+// faces in the order the Gaussians name them (canonical in version-3 lossy files).
 #pragma once
 
 #include <cstdint>
@@ -41,6 +42,7 @@ struct AvatarFileInfo {
   std::string scale_encoding;                // "log" or "linear"
   std::string rotation_encoding;             // "smallest3" or "wxyz"
   std::string gaussian_order = "original";   // "face": sorted by face index (lossy packs)
+  std::string gaussian_face_order = "file";  // "canonical": faces named independently of the file's order
   std::string texture_mime;
   int texture_width = 0, texture_height = 0;
   bool texture_exact = false;                // lossless float copy present

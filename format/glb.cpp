@@ -1,5 +1,6 @@
 #include "format/glb.h"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -208,6 +209,58 @@ ByteSpan buffer_view(const Glb& g, int view, const std::string& where) {
                     ") lie outside the " + std::to_string(g.bin.size()) + "-byte BIN chunk (truncated file?)");
   }
   return {g.bin.data() + offset, size_t(length)};
+}
+
+AccessorValues read_accessor(const Glb& g, int64_t index, int components, const std::string& where, const std::string& what) {
+  const Json& acc = element(g.json, "accessors", index, where);
+  const std::string A = what + " (accessors[" + std::to_string(index) + "])";
+  if (find_member(acc, "sparse")) fail(where, A + ": sparse accessors are not supported");
+  const Json* bv = find_member(acc, "bufferView");
+  if (!bv) fail(where, A + ": no bufferView");
+  AccessorValues out;
+  out.component_type = int(as_int(member(acc, "componentType", where, A), where, A + ".componentType", 5120, 5126));
+  static const int kSize[7] = {1, 1, 2, 2, 0, 4, 4};  // 5120 byte .. 5126 float (5124 does not exist)
+  const int size = kSize[out.component_type - 5120];
+  if (size == 0) fail(where, A + ": unknown componentType 5124");
+  if (const Json* n = find_member(acc, "normalized")) {
+    if (!n->is_boolean()) fail(where, A + ".normalized: not a boolean");
+    out.normalized = n->get<bool>();
+  }
+  if (out.normalized && (out.component_type == 5125 || out.component_type == 5126)) fail(where, A + ": normalized " + (out.component_type == 5126 ? "float" : "unsigned int"));
+  static const char* const kTypes[] = {"SCALAR", "VEC2", "VEC3", "VEC4"};
+  const std::string type = as_string(member(acc, "type", where, A), where, A + ".type");
+  if (components < 1 || components > 4 || type != kTypes[components - 1]) fail(where, A + ": type " + type + ", expected " + kTypes[components - 1]);
+  out.count = as_int(member(acc, "count", where, A), where, A + ".count", 1, INT64_MAX / 64);
+  const int64_t view = as_int(*bv, where, A + ".bufferView", 0, INT32_MAX);
+  const ByteSpan s = buffer_view(g, int(view), where);
+  int64_t offset = 0, stride = int64_t(size) * components;
+  if (const Json* o = find_member(acc, "byteOffset")) offset = as_int(*o, where, A + ".byteOffset", 0, INT32_MAX);
+  const Json& bvj = element(g.json, "bufferViews", view, where);
+  if (const Json* st = find_member(bvj, "byteStride")) stride = as_int(*st, where, "bufferViews[" + std::to_string(view) + "].byteStride", 4, 252);
+  if (stride < int64_t(size) * components) fail(where, A + ": byteStride smaller than an element");
+  // The range is checked before anything is allocated: the count must fit the bytes.
+  const size_t elem = size_t(size) * size_t(components);
+  if (size_t(offset) > s.size || s.size - size_t(offset) < elem || (s.size - size_t(offset) - elem) / size_t(stride) < size_t(out.count - 1)) {
+    fail(where, A + ": " + std::to_string(out.count) + " elements do not fit its bufferView");
+  }
+  out.values.resize(size_t(out.count) * size_t(components));
+  const double scale[7] = {127.0, 255.0, 32767.0, 65535.0, 1.0, 1.0, 1.0};
+  for (int64_t e = 0; e < out.count; ++e)
+    for (int c = 0; c < components; ++c) {
+      const uint8_t* p = s.data + offset + e * stride + c * size;
+      double v = 0;
+      switch (out.component_type) {
+        case 5120: { int8_t x; std::memcpy(&x, p, 1); v = x; break; }
+        case 5121: { uint8_t x; std::memcpy(&x, p, 1); v = x; break; }
+        case 5122: { int16_t x; std::memcpy(&x, p, 2); v = x; break; }
+        case 5123: { uint16_t x; std::memcpy(&x, p, 2); v = x; break; }
+        case 5125: { uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
+        default: { float x; std::memcpy(&x, p, 4); v = x; break; }
+      }
+      if (out.normalized) v = std::max(v / scale[out.component_type - 5120], -1.0);  // glTF's rule for signed types
+      out.values[size_t(e) * components + size_t(c)] = v;
+    }
+  return out;
 }
 
 }  // namespace haha::glb

@@ -72,6 +72,18 @@ std::vector<float> as_float_array(const Json& v, const std::string& where, const
 // to float gets the value exactly.
 double json_float(float f);
 
+// The values of accessor `index`, `components` per element, read from its bufferView with
+// byteOffset and byteStride, every byte range checked; normalized integers mapped to
+// [0, 1], other integers as they are (doubles hold every glTF component type exactly).
+// Sparse accessors and accessors without a bufferView are rejected with an error.
+struct AccessorValues {
+  int component_type = 0;  // 5120..5126
+  bool normalized = false;
+  int64_t count = 0;
+  std::vector<double> values;  // (count, components)
+};
+AccessorValues read_accessor(const Glb& g, int64_t index, int components, const std::string& where, const std::string& what);
+
 // Index `i` into the top-level array `key` (e.g. "accessors"), checked.
 const Json& element(const Json& root, const char* key, int64_t i, const std::string& where);
 

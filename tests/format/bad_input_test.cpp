@@ -36,6 +36,11 @@ struct Fixture {
   // The test body's degenerate face keeps the default pack sequential; without it the
   // mesh is edgebreaker-encoded.
   std::vector<uint8_t> edgebreaker = pack_avatar(test::without_degenerate_face(avatar), PackOptions{});
+  std::vector<uint8_t> plain = [this] {
+    PackOptions o;
+    o.mesh_compression = MeshCompression::none;
+    return pack_avatar(avatar, o);
+  }();
   std::vector<uint8_t> lossless = [this] {
     PackOptions o;
     o.lossless = true;
@@ -111,16 +116,64 @@ TEST(FormatBadInput, TruncatedAtEveryRegion) {
   expect_error(t, "truncated");
 }
 
+// A version-3 file turned into an older version's layout: the vertex map as the private
+// Draco attribute BODY_VERTEX, no canonical face order.
+void as_old_version(Json& j, int version) {
+  Json& ext = j["extensions"]["HAHA_gaussian_avatar"];
+  Json& prim = j["meshes"][0]["primitives"][0];
+  ext["version"] = version;
+  ext["body"]["draco"]["attributes"]["BODY_VERTEX"] = prim["extensions"]["KHR_draco_mesh_compression"]["attributes"]["_BODY_VERTEX"];
+  prim["extensions"]["KHR_draco_mesh_compression"]["attributes"].erase("_BODY_VERTEX");
+  prim["attributes"].erase("_BODY_VERTEX");
+  ext["gaussians"].erase("faceOrder");
+}
+
 TEST(FormatBadInput, WrongExtensionVersion) {
-  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 3; }),
-               "unsupported version 3");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 4; }),
+               "unsupported version 4");
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 0; }),
                "unsupported version 0");
   // Version 1 had a joint regressor in every file.
-  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 1; }),
-               "jointRegressor: missing");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { as_old_version(j, 1); }), "jointRegressor: missing");
+  // Version 3 names the vertex map publicly and says which face order the Gaussians use.
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"].erase("_BODY_VERTEX"); }),
+               "_BODY_VERTEX");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"].erase("faceOrder"); }),
+               "faceOrder: missing");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["gaussians"]["faceOrder"] = "sorted"; }),
+               "faceOrder: unknown 'sorted'");
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = "1"; }),
                "unsupported version");
+}
+
+// A plain (Draco-free) body mesh: every accessor is checked against its bufferView before
+// anything is allocated, and every index against the vertices.
+TEST(FormatBadInput, PlainMeshAccessors) {
+  const Fixture& f = fx();
+  ASSERT_FALSE(unpack_avatar(f.plain.data(), f.plain.size(), kName).info.sizes.draco_mesh);
+  auto attr = [](Json& j, const char* name) -> Json& { return j["accessors"][j["meshes"][0]["primitives"][0]["attributes"][name].get<size_t>()]; };
+  expect_error(edited(f.plain, [&](Json& j, auto&) { attr(j, "POSITION")["count"] = 100000000; }), "do not fit its bufferView");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { attr(j, "TEXCOORD_0")["byteOffset"] = 1 << 30; }), "do not fit its bufferView");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { j["bufferViews"][attr(j, "WEIGHTS_0")["bufferView"].get<size_t>()]["byteStride"] = 4; }),
+               "byteStride smaller than an element");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { attr(j, "JOINTS_0")["type"] = "VEC3"; }), "type VEC3, expected VEC4");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { attr(j, "_BODY_VERTEX")["sparse"] = Json::object(); }), "sparse accessors are not supported");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { j["meshes"][0]["primitives"][0]["attributes"].erase("_BODY_VERTEX"); }), "_BODY_VERTEX");
+  expect_error(edited(f.plain, [&](Json& j, auto&) { j["meshes"][0]["primitives"][0]["mode"] = 0; }), "not a triangle list");
+  // Values: a vertex map entry and an index out of range.
+  expect_error(edited(f.plain, [&](Json& j, std::vector<uint8_t>& bin) {
+                 const Json& bv = j["bufferViews"][attr(j, "_BODY_VERTEX")["bufferView"].get<size_t>()];
+                 const float big = float(1 << 30);
+                 std::memcpy(&bin[bv["byteOffset"].get<size_t>()], &big, 4);
+               }),
+               "_BODY_VERTEX 1073741824 out of range");
+  expect_error(edited(f.plain, [&](Json& j, std::vector<uint8_t>& bin) {
+                 const Json& acc = j["accessors"][j["meshes"][0]["primitives"][0]["indices"].get<size_t>()];
+                 const Json& bv = j["bufferViews"][acc["bufferView"].get<size_t>()];
+                 const uint16_t big = 65000;
+                 std::memcpy(&bin[bv["byteOffset"].get<size_t>() + 6], &big, 2);
+               }),
+               "index 65000 out of range");
 }
 
 // Version-2 parts that a corrupt file can get wrong: an edgebreaker mesh in a version-1

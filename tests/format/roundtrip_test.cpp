@@ -12,6 +12,7 @@
 #include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
+#include "format/canonical_faces.h"
 #include "format/draco_io.h"
 #include "format/gaussian_lod.h"
 #include "format/glb.h"
@@ -77,15 +78,24 @@ TEST(FormatRoundTrip, DefaultPackIsWithinQuantizationBounds) {
   PackedSizes sz;
   const std::vector<uint8_t> glb = pack_avatar(a, opt, &sz);
   const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
-  // Lossy packs store the Gaussians sorted by face, stably: compare against that order.
+  // Lossy packs store the Gaussians sorted by their face's place in the canonical face
+  // order, stably, and name faces by it: compare against that order.
+  const CanonicalFaces canon = canonical_faces(a.body.faces.data(), a.body.num_faces);
+  std::vector<int32_t> rank(canon.order.size());
+  for (size_t k = 0; k < canon.order.size(); ++k) rank[size_t(canon.order[k])] = int32_t(k);
   std::vector<int> order(size_t(a.gaussians.size()));
   for (size_t i = 0; i < order.size(); ++i) order[i] = int(i);
-  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return a.gaussians.face[size_t(x)] < a.gaussians.face[size_t(y)]; });
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) {
+    return rank[size_t(a.gaussians.face[size_t(x)])] < rank[size_t(a.gaussians.face[size_t(y)])];
+  });
   BoundGaussians g;
   g.resize(a.gaussians.size());
   for (int i = 0; i < g.size(); ++i) {
     const size_t o = size_t(order[size_t(i)]);
-    g.face[size_t(i)] = a.gaussians.face[o];
+    g.face[size_t(i)] = rank[size_t(a.gaussians.face[o])];
+    // The reader's face is the body face, corner for corner.
+    for (int c = 0; c < 3; ++c)
+      ASSERT_EQ(u.avatar.body.faces[size_t(g.face[size_t(i)]) * 3 + size_t(c)], a.body.faces[size_t(a.gaussians.face[o]) * 3 + size_t(c)]) << i;
     g.opacity[size_t(i)] = a.gaussians.opacity[o];
     for (int k = 0; k < 3; ++k) {
       g.offset[size_t(i) * 3 + k] = a.gaussians.offset[o * 3 + k];
@@ -141,11 +151,25 @@ TEST(FormatRoundTrip, DefaultPackIsWithinQuantizationBounds) {
   const std::vector<float> rest = baked_rest_vertices(a);
   const float pos_tol = 0.5f * step(range(rest, 3), MeshBits{}.position) * 1.01f + 1e-6f;
   for (size_t i = 0; i < rest.size(); ++i) ASSERT_NEAR(rest[i], u.avatar.body.v_template[i], pos_tol) << i;
+  // Faces come back in the canonical order, each possibly rotated: body face f is face
+  // rank[f] there, with the same corners (vertex and UV) in some rotation.
   const std::vector<float> uva = corner_uvs(a.body), uvb = corner_uvs(u.avatar.body);
   ASSERT_EQ(uva.size(), uvb.size());
   const float uv_tol = 0.5f * step(range(a.body.vt, 2), MeshBits{}.texcoord) * 1.01f + 1e-6f;
-  for (size_t i = 0; i < uva.size(); ++i) ASSERT_NEAR(uva[i], uvb[i], uv_tol) << i;
-  EXPECT_EQ(a.body.faces, u.avatar.body.faces);
+  for (int f = 0; f < a.body.num_faces; ++f) {
+    const size_t k = size_t(rank[size_t(f)]);
+    bool found = false;
+    for (size_t r = 0; r < 3 && !found; ++r) {
+      bool same = true;
+      for (size_t c = 0; c < 3; ++c) {
+        const size_t x = size_t(f) * 3 + c, y = k * 3 + (c + r) % 3;
+        same = same && a.body.faces[x] == u.avatar.body.faces[y] && std::fabs(uva[x * 2] - uvb[y * 2]) <= uv_tol &&
+               std::fabs(uva[x * 2 + 1] - uvb[y * 2 + 1]) <= uv_tol;
+      }
+      found = same;
+    }
+    ASSERT_TRUE(found) << "body face " << f;
+  }
   // Weights: renormalised after 10-bit quantization; all influences kept (test weights >= 1e-4).
   for (size_t i = 0; i < a.body.weights.size(); ++i) ASSERT_NEAR(a.body.weights[i], u.avatar.body.weights[i], 2e-3f) << i;
   EXPECT_EQ(sz.skin_sets, 2);  // up to 6 influences per vertex: two JOINTS/WEIGHTS sets
@@ -252,14 +276,14 @@ TEST(FormatRoundTrip, DracoSequentialKeepsFaceAndPointOrder) {
 
 TEST(FormatRoundTrip, PackedMeshKeepsBodyFaceOrderInTheGltf) {
   // The glTF's own Draco stream decodes to the body's faces in the body's order (through
-  // the BODY_VERTEX map), including the degenerate last face of the test body.
+  // the _BODY_VERTEX map), including the degenerate last face of the test body.
   const Avatar a = test::make_test_avatar(10);
   const std::vector<uint8_t> bytes = pack_avatar(a, PackOptions{});
   const glb::Glb g = glb::parse_glb(bytes.data(), bytes.size(), "mem");
   const auto& kd = g.json["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"];
   const glb::ByteSpan s = glb::buffer_view(g, kd["bufferView"].get<int>(), "mem");
   dracoio::Decoded d(s.data, s.size, true, "mem", "mesh");
-  const auto map = d.ints(g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"]["attributes"]["BODY_VERTEX"].get<int>(), 1, "BV");
+  const auto map = d.ints(kd["attributes"]["_BODY_VERTEX"].get<int>(), 1, "BV");
   const std::vector<int32_t> f = d.faces();
   ASSERT_EQ(f.size(), a.body.faces.size());
   for (size_t c = 0; c < f.size(); ++c) ASSERT_EQ(map[size_t(f[c])], a.body.faces[c]) << "corner " << c;
@@ -285,9 +309,10 @@ std::vector<std::array<float, 10>> posed_gaussians(const Avatar& a, const SmplxP
   return out;
 }
 
-// Edgebreaker reorders the faces and rotates their corners; with FACE_CORNER the reader
-// gives every Gaussian its body face corner for corner, so the file reposes exactly like
-// the sequential one (same quantization, so the same rest vertices).
+// Edgebreaker reorders the faces and rotates their corners; through the canonical face
+// order and FACE_CORNER the reader gives every Gaussian its body face corner for corner,
+// so the file reposes exactly like the sequential one (same quantization, so the same
+// rest vertices).
 TEST(FormatRoundTrip, EdgebreakerFileReposesLikeTheBodyFaceOrder) {
   const Avatar a = test::without_degenerate_face(test::make_test_avatar(400));
   PackOptions eb_opt, seq_opt;
@@ -299,8 +324,8 @@ TEST(FormatRoundTrip, EdgebreakerFileReposesLikeTheBodyFaceOrder) {
   EXPECT_LT(eb_sz.mesh, seq_sz.mesh);
   const UnpackedAvatar ue = unpack_avatar(eb.data(), eb.size(), "eb.glb"), us = unpack_avatar(seq.data(), seq.size(), "seq.glb");
   EXPECT_TRUE(ue.info.sizes.edgebreaker);
-  EXPECT_EQ(us.avatar.body.faces, a.body.faces);
-  EXPECT_NE(ue.avatar.body.faces, a.body.faces);  // the encoder's order
+  // Both name the Gaussians' faces in the canonical order: the same faces either way.
+  EXPECT_EQ(ue.avatar.gaussians.face, us.avatar.gaussians.face);
   // Each Gaussian's face, corner by corner, is its body face.
   std::vector<std::array<int32_t, 3>> want, got;
   for (int32_t f : a.gaussians.face) want.push_back({a.body.faces[size_t(f) * 3], a.body.faces[size_t(f) * 3 + 1], a.body.faces[size_t(f) * 3 + 2]});
@@ -327,15 +352,22 @@ TEST(FormatRoundTrip, EdgebreakerFileReposesLikeTheBodyFaceOrder) {
 }
 
 // A version-1 file (sequential mesh, joint regressor) still loads: the lossless pack is
-// one apart from its version number.
+// one apart from its version number and where it names the vertex map.
 TEST(FormatRoundTrip, Version1FileStillLoads) {
   const Avatar a = test::make_test_avatar(100);
   PackOptions opt;
   opt.lossless = true;
   const std::vector<uint8_t> v2 = pack_avatar(a, opt);
   glb::Glb g = glb::parse_glb(v2.data(), v2.size(), "v2");
-  g.json["extensions"]["HAHA_gaussian_avatar"]["version"] = 1;
-  g.json["extensions"]["HAHA_gaussian_avatar"]["body"]["draco"].erase("method");
+  // Version 1 named the vertex map privately and knew no face order but the file's.
+  glb::Json& ext = g.json["extensions"]["HAHA_gaussian_avatar"];
+  glb::Json& prim = g.json["meshes"][0]["primitives"][0];
+  ext["version"] = 1;
+  ext["body"]["draco"].erase("method");
+  ext["body"]["draco"]["attributes"]["BODY_VERTEX"] = prim["extensions"]["KHR_draco_mesh_compression"]["attributes"]["_BODY_VERTEX"];
+  prim["extensions"]["KHR_draco_mesh_compression"]["attributes"].erase("_BODY_VERTEX");
+  prim["attributes"].erase("_BODY_VERTEX");
+  ext["gaussians"].erase("faceOrder");
   const std::vector<uint8_t> v1 = glb::write_glb(g.json, g.bin);
   const UnpackedAvatar u1 = unpack_avatar(v1.data(), v1.size(), "v1.glb"), u2 = unpack_avatar(v2.data(), v2.size(), "v2.glb");
   EXPECT_EQ(u1.info.version, 1);
