@@ -41,3 +41,8 @@ fi
 if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../format/js/node_modules/babylonjs-loaders" ]; then
   npm ci --prefix "$(dirname "$0")/../format/js" --no-audit --no-fund --loglevel=error >/dev/null
 fi
+# The glTF-Transform extension class of HAHA_gaussian_avatar and its test (format/js/gltf-transform:
+# @gltf-transform/core + extensions, draco3dgltf, pngjs; pinned by its package-lock.json).
+if [ ! -d "$(dirname "$0")/../format/js/gltf-transform/node_modules/@gltf-transform/core" ]; then
+  npm ci --prefix "$(dirname "$0")/../format/js/gltf-transform" --no-audit --no-fund --loglevel=error >/dev/null
+fi

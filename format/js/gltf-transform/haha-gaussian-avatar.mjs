@@ -25,15 +25,13 @@
 // (CRC-32 IEEE, as zlib); `texture.crc32` / `width` / `height` follow the image as written;
 // `body.draco` is dropped (it described haha's own Draco stream; optional since version 3).
 // Only version-3 files can be rewritten (earlier versions keep the body-vertex map inside the
-// Draco stream, which glTF-Transform does not keep). Files whose Gaussians name faces in the
-// file's order (`gaussians.faceOrder` "file": lossless packs) can be rewritten only with the
-// faces unchanged (plain accessors or sequential Draco); `"canonical"` files (the default pack)
-// survive any face and vertex reordering, Draco edgebreaker included.
-import { Extension, ExtensionProperty, Format, GLB_BUFFER, ImageUtils, Primitive, PropertyType } from '@gltf-transform/core';
+// Draco stream, which glTF-Transform does not keep), with `gaussians.faceOrder` "canonical" (the
+// default pack: it survives any face and vertex reordering, Draco edgebreaker included; "file",
+// lossless packs, names faces by their position in haha's own stream and is refused).
+import { Accessor, Extension, ExtensionProperty, Format, GLB_BUFFER, ImageUtils, Primitive, PropertyType } from '@gltf-transform/core';
 
 export const HAHA_GAUSSIAN_AVATAR = 'HAHA_gaussian_avatar';
 export const KHR_GAUSSIAN_SPLATTING = 'KHR_gaussian_splatting';
-const KHR_DRACO = 'KHR_draco_mesh_compression';
 /** Versions read (format/spec.md); only the last can be written back (see above). */
 export const HAHA_READ_VERSIONS = [1, 2, 3];
 export const HAHA_WRITE_VERSION = 3;
@@ -95,16 +93,20 @@ function fail(message) {
   throw new Error(`${HAHA_GAUSSIAN_AVATAR}: ${message}`);
 }
 
-// The body triangles as body-vertex triples (file face order and corner order), through
-// _BODY_VERTEX; null when the primitive has no such attribute or no indices.
-function bodyTriples(prim) {
-  const bv = prim && prim.getAttribute('_BODY_VERTEX');
-  const indices = prim && prim.getIndices();
-  if (!bv || !indices) return null;
-  const map = bv.getArray(), idx = indices.getArray();
-  const out = new Uint32Array(idx.length);
-  for (let i = 0; i < idx.length; i++) out[i] = map[idx[i]];
-  return out;
+// A float _BODY_VERTEX (whole numbers) becomes unsigned short / int, as the spec stores it:
+// Draco quantizes float attributes (12 bits for generic ones in glTF-Transform), which would
+// turn body-vertex indices into wrong ones; integers it keeps exactly.
+function integerBodyVertex(mesh) {
+  const prim = mesh && mesh.listPrimitives()[0];
+  const acc = prim && prim.getAttribute('_BODY_VERTEX');
+  if (!acc || acc.getComponentType() !== Accessor.ComponentType.FLOAT || acc.getElementSize() !== 1) return;
+  const a = acc.getArray();
+  let max = 0;
+  for (let i = 0; i < a.length; i++) {
+    if (!(a[i] >= 0) || a[i] !== Math.floor(a[i]) || a[i] > 0xffffffff) return;  // not indices: left as is
+    if (a[i] > max) max = a[i];
+  }
+  acc.setArray(max <= 0xffff ? Uint16Array.from(a) : Uint32Array.from(a)).setNormalized(false);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -128,7 +130,6 @@ export class HahaAvatar extends ExtensionProperty {
     return Object.assign(super.getDefaults(), {
       data: {},
       payloads: {},
-      fileFaces: null,  // body-vertex triples as read ("file" face order only), to detect a reorder
       bodyMesh: null, bodyNode: null, bodySkin: null, texture: null, splatMesh: null, splatNode: null,
     });
   }
@@ -170,9 +171,6 @@ export class HahaAvatar extends ExtensionProperty {
     else payloads[pointer] = bytes;
     return this.set('payloads', payloads);
   }
-
-  /** @hidden */ _getFileFaces() { return this.get('fileFaces'); }
-  /** @hidden */ _setFileFaces(f) { return this.set('fileFaces', f); }
 }
 
 /** HAHA_gaussian_avatar for glTF-Transform: read and write (see the top of this file). */
@@ -231,11 +229,7 @@ export class HahaGaussianAvatar extends Extension {
     }
     delete data.texture.crc32;
     avatar.setData(data);
-    if (data.gaussians && data.gaussians.faceOrder !== 'canonical') {
-      const prim = avatar.getBodyMesh().listPrimitives()[0];
-      const faces = bodyTriples(prim);
-      if (faces) avatar._setFileFaces(faces);
-    }
+    integerBodyVertex(avatar.getBodyMesh());
     this.document.getRoot().setExtension(HAHA_GAUSSIAN_AVATAR, avatar);
     return this;
   }
@@ -259,7 +253,7 @@ export class HahaGaussianAvatar extends Extension {
     if (!node || !context.nodeIndexMap.has(node)) fail('the body node was removed from the document');
     if (!skin || !context.skinIndexMap.has(skin)) fail('the body skin was removed from the document');
     if (!tex || !context.imageIndexMap.has(tex)) fail('the texture image was removed from the document');
-    this._checkBodyMesh(avatar, mesh, data, context);
+    this._checkBodyMesh(mesh, data);
 
     data.body.mesh = context.meshIndexMap.get(mesh);
     data.body.node = context.nodeIndexMap.get(node);
@@ -327,34 +321,21 @@ export class HahaGaussianAvatar extends Extension {
   }
 
   // The body primitive must still be what the Gaussians bind to.
-  _checkBodyMesh(avatar, mesh, data, context) {
+  _checkBodyMesh(mesh, data) {
     const prim = mesh.listPrimitives()[0];
-    if (!prim || prim.getMode() !== Primitive.Mode.TRIANGLES || !prim.getIndices()) {
-      fail('the body mesh\'s first primitive is no longer an indexed triangle list');
-    }
-    if (!prim.getAttribute('_BODY_VERTEX')) fail('the body mesh lost its _BODY_VERTEX attribute (the Gaussians bind through it)');
-    const faces = prim.getIndices().getCount() / 3;
+    if (!prim || prim.getMode() !== Primitive.Mode.TRIANGLES) fail('the body mesh\'s first primitive is no longer a triangle list');
+    const bodyVertex = prim.getAttribute('_BODY_VERTEX');
+    if (!bodyVertex) fail('the body mesh lost its _BODY_VERTEX attribute (the Gaussians bind through it)');
+    const faces = (prim.getIndices() || bodyVertex).getCount() / 3;
     if (Number.isInteger(data.body.faceCount) && faces !== data.body.faceCount) {
       fail(`the body mesh has ${faces} faces, the avatar ${data.body.faceCount} (a transform added or removed faces)`);
     }
     const order = data.gaussians && data.gaussians.faceOrder;
-    if (order === 'canonical' || !data.gaussians || !data.gaussians.count) return;
-    // "file" face order: the Gaussians name faces by position in the file, so the faces must
-    // be written unchanged: same body triples, same corners, and no Draco edgebreaker.
-    const was = avatar._getFileFaces(), now = bodyTriples(prim);
-    if (!was || !now || was.length !== now.length || was.some((v, i) => v !== now[i])) {
-      fail('gaussians.faceOrder "file": the body faces were reordered, and the Gaussians name faces by their ' +
-           'position in the file; repack with haha pack (lossy packs use faceOrder "canonical")');
-    }
-    const draco = context.extensionData[KHR_DRACO];
-    if (draco && draco.primitiveHashMap && draco.primitiveHashMap.has(prim)) {
-      const encoded = draco.primitiveEncodingMap.get(draco.primitiveHashMap.get(prim));
-      // Draco header: "DRACO", major, minor, encoder type, encoder method (0 sequential, 1 edgebreaker).
-      if (encoded && encoded.data[8] !== 0) {
-        fail('gaussians.faceOrder "file": Draco edgebreaker reorders the body faces that the Gaussians name by ' +
-             'position; write with KHRDracoMeshCompression method SEQUENTIAL or without Draco, or repack with ' +
-             'haha pack (lossy packs use faceOrder "canonical")');
-      }
+    if (order !== 'canonical') {
+      // "file" (lossless packs): the Gaussians name faces by position in haha's own stream,
+      // which only body.draco vouches for; haha rejects such a file once a tool rewrote the mesh.
+      fail(`gaussians.faceOrder ${JSON.stringify(order)}: the Gaussians name faces by their position in haha's own ` +
+           'mesh stream, so the file cannot be rewritten; repack without --lossless (faceOrder "canonical")');
     }
   }
 }
