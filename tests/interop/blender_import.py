@@ -69,7 +69,16 @@ if images:
     img = images[0]
     w, h = img.size
     check(w > 0 and h > 0 and img.has_data, f"image '{img.name}' loaded ({w} x {h})")
-check(body.data.uv_layers.active is not None, "the mesh has UVs")
+uv_layer = body.data.uv_layers.active
+check(uv_layer is not None, "the mesh has UVs")
+if uv_layer is not None:
+    us = [d.uv[0] for d in uv_layer.data]
+    vs = [d.uv[1] for d in uv_layer.data]
+    # Normalized unsigned-short UVs must come back in [0, 1] (an importer that ignores
+    # `normalized` gets 0..65535: one texel colour over the whole body).
+    check(min(us) >= -1e-6 and max(us) <= 1 + 1e-6 and min(vs) >= -1e-6 and max(vs) <= 1 + 1e-6,
+          f"UVs in [0, 1] (u {min(us):.3f}..{max(us):.3f}, v {min(vs):.3f}..{max(vs):.3f})")
+    check(max(us) - min(us) > 0.5 and max(vs) - min(vs) > 0.5, "UVs spread over the texture")
 
 # Skeleton and skin.
 bones = arm.data.bones
