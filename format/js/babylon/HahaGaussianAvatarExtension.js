@@ -16,8 +16,10 @@
 // BABYLON: the namespace (UMD global, or an object holding the classes used here from
 // @babylonjs/core and @babylonjs/loaders). Options: dracoDecoderModule (an initialised
 // Emscripten Draco decoder module, e.g. three.js's libs/draco or npm draco3dgltf: the
-// Gaussians are a Draco point cloud with GENERIC attributes), hideSplatPrimitive (true: the
-// optional KHR_gaussian_splatting mesh, which Babylon leaves in the rest pose, is disabled).
+// Gaussians are a Draco point cloud with GENERIC attributes), exactBody (false: the body is
+// Babylon's GPU-skinned mesh, no pose correctives; true: drawn from the exact CPU-posed
+// vertices instead, as `haha render` poses it), hideSplatPrimitive (true: the optional
+// KHR_gaussian_splatting mesh, which Babylon leaves in the rest pose, is disabled).
 import { Avatar, NUM_JOINTS } from '../avatar.js';
 import { Glb } from '../glb.js';
 import { dracoDecode } from '../draco.js';
@@ -56,6 +58,7 @@ export class HahaGaussianAvatarExtension {
       if (ext.splats && this.options.hideSplatPrimitive !== false && node(ext.splats.node)) node(ext.splats.node).setEnabled(false);
       const ibm = avatar.glb.readAccessor(gltf.skins[ext.body.skin].inverseBindMatrices, 16, 'skin.inverseBindMatrices').values;
       const layer = new HahaGaussianLayer(this.B, loader.babylonScene, avatar, joints, ibm, loader.rootBabylonMesh, node(ext.body.node));
+      if (this.options.exactBody) layer.makeExactBody();
       const s = loader.babylonScene;
       s.metadata = s.metadata || {};
       (s.metadata.hahaAvatars = s.metadata.hahaAvatars || []).push(layer);
@@ -208,7 +211,40 @@ export class HahaGaussianLayer {
       });
     a.reposeBodyWith(A, feat);
     a.poseGaussians();
+    if (this.exactBody) this._updateExactBody();
     return true;
+  }
+
+  // exactBody: the body drawn from the CPU-posed vertices (every influence, pose correctives)
+  // instead of Babylon's GPU skinning; the skinned mesh is disabled.
+  makeExactBody() {
+    const B = this.B, body = this.bodyNode, a = this.avatar;
+    if (!body || !body.getVerticesData) throw new Error(`${EXTENSION_NAME}: the body node is not a mesh`);
+    if (body.getTotalVertices() !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${body.getTotalVertices()} vertices, the avatar ${a.Vg}`);
+    const mesh = new B.Mesh('HAHA_exact_body', this.scene);
+    this._exactPositions = new Float32Array(3 * a.Vg);
+    mesh.setVerticesData(B.VertexBuffer.PositionKind, this._exactPositions, true);
+    const uv = body.getVerticesData(B.VertexBuffer.UVKind);
+    if (uv) mesh.setVerticesData(B.VertexBuffer.UVKind, uv, false);
+    mesh.setIndices(body.getIndices(), a.Vg);
+    mesh.material = body.material;
+    for (const k of ['sideOrientation', 'overrideMaterialSideOrientation']) if (k in body) mesh[k] = body[k];  // the loader's winding rule
+    mesh.parent = this.root;  // positions are in the avatar's glTF frame
+    mesh.alwaysSelectAsActiveMesh = true;
+    mesh.isPickable = false;
+    body.setEnabled(false);
+    this.exactBody = mesh;
+    this._sig.fill(NaN);
+    this.update();
+  }
+
+  _updateExactBody() {
+    const a = this.avatar, P = this._exactPositions, bv = a.bodyVertex;
+    for (let g = 0; g < a.Vg; g++) {
+      const s = 3 * bv[g];
+      P[3 * g] = a.posed[s]; P[3 * g + 1] = a.posed[s + 1]; P[3 * g + 2] = a.posed[s + 2];
+    }
+    this.exactBody.updateVerticesData(this.B.VertexBuffer.PositionKind, P, false, false);
   }
 
   // World-space Gaussian centres (N x 3) after update().

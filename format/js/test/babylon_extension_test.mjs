@@ -4,7 +4,8 @@
 // Draco decoder served locally) imports each pack variant of a tiny avatar with the glTF loader
 // and HAHA_gaussian_avatar registered, sets the joint nodes' rotations and renders the scene in
 // headless Debian Chromium; checks in common.mjs engineTest: PSNR against `haha render` for a
-// motion frame and a raised arm (>= 30 dB), right- and left-handed scenes; the raised arm's
+// motion frame and a raised arm (>= 30 dB), right- and left-handed scenes, the GPU-skinned
+// body (default) and exactBody; the raised arm's
 // Gaussian centres against the exact reposing and the faces Babylon skins, the pose set on the
 // joint nodes by hand and played by an AnimationGroup.
 // Usage: babylon_extension_test.mjs --haha PATH [--work DIR] [--size 128] [--frame 3] [--keep]
@@ -13,5 +14,5 @@ import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
   test: 'js_babylon_extension', engine: 'babylon', page: 'babylon_page.html',
-  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }]], mixer: 'an AnimationGroup',
+  packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }], ['exactBody', { exactBody: true }]], mixer: 'an AnimationGroup',
 }));

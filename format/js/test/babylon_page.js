@@ -12,7 +12,8 @@ B.DracoDecoder.DefaultConfiguration = {
   fallbackUrl: `${location.origin}${DRACO}draco_decoder.js`,
 };
 const dracoDecoderModule = await window.DracoDecoderModule({ wasmBinary: await (await fetch(`${DRACO}draco_decoder.wasm`)).arrayBuffer() });
-registerHahaGaussianAvatar(B, { dracoDecoderModule });
+const extensionOptions = { dracoDecoderModule };  // read by the extension at each load
+registerHahaGaussianAvatar(B, extensionOptions);
 
 const canvas = document.getElementById('view');
 const engine = new B.Engine(canvas, false, { preserveDrawingBuffer: true, antialias: false, adaptToDeviceRatio: false });
@@ -32,6 +33,7 @@ function newScene() {
 window.hahaTest = {
   async load(url, options = {}) {
     leftHanded = !!options.leftHanded;  // Babylon's default handedness (the glTF mirrored by __root__)
+    extensionOptions.exactBody = !!options.exactBody;
     newScene();
     const t0 = performance.now();
     await B.SceneLoader.ImportMeshAsync('', '', url, scene, undefined, '.glb');
