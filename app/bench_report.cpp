@@ -188,6 +188,15 @@ std::vector<std::pair<std::string, PlotSpec>> bench_plots(const BenchResult& r) 
         bits.point_labels.push_back(std::to_string(pp.setting.gaussian_bits) + " bit");
         continue;
       }
+      if (pp.setting.group != "texture") {  // mesh storage, allocation and corrective points: one series per group
+        if (!tex.count(pp.setting.group)) tex_order.push_back(pp.setting.group);
+        PlotSeries& s = tex[pp.setting.group];
+        s.label = pp.setting.group;
+        s.x.push_back(kbytes);
+        s.y.push_back(pp.psnr_vs_original);
+        s.point_labels.push_back(pp.setting.name);
+        continue;
+      }
       const std::string codec = pp.setting.texture_codec == "png"
                                     ? std::string("png")
                                     : pp.setting.texture_codec + " quality " + std::to_string(pp.setting.texture_quality);
@@ -216,7 +225,7 @@ std::vector<std::pair<std::string, PlotSpec>> bench_plots(const BenchResult& r) 
       bool any = false;
       for (const std::string& l : s.point_labels) any |= !l.empty();
       if (!any) s.point_labels.clear();
-      if (s.x.size() > 1) s.label = "texture " + c + " at N px (Gaussians at default bits)";
+      if (s.x.size() > 1 && s.label.rfind("texture ", 0) == 0) s.label = "texture " + c + " at N px (Gaussians at default bits)";
       p.series.push_back(s);
     }
     if (!p.series.empty()) plots.emplace_back("pack_size_error.png", p);

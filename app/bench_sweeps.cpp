@@ -199,6 +199,7 @@ std::vector<uint8_t> pack_with_setting(const Avatar& a, const PackSetting& s, Pa
   }
   if (!s.gaussian_bits_spec.empty()) o.gaussian_bits = parse_gaussian_bits(s.gaussian_bits_spec, "--gaussian-bit-sets");
   if (!s.mesh_bits_spec.empty()) o.mesh_bits = parse_mesh_bits(s.mesh_bits_spec, "--mesh-bit-sets");
+  if (s.plain_mesh) o.mesh_compression = MeshCompression::none;
   o.texture_codec = texture_codec_from_name(s.texture_codec);
   o.texture_quality = s.texture_quality;
   o.texture_size = s.texture_size;
@@ -249,6 +250,12 @@ std::vector<PackSetting> default_pack_settings(int tex, std::string default_code
     for (int q : {95, 90, 85, 75}) s.push_back(tex_setting(codec, q, tex));
   for (int size = tex / 2; size >= 32 && size >= tex / 8; size /= 2)
     s.push_back(tex_setting(default_codec, default_quality, size));
+  // The file for engines and tools without Draco: the default otherwise.
+  PackSetting plain = tex_setting(default_codec, default_quality, tex);
+  plain.name = "no Draco";
+  plain.group = "mesh --mesh-compression none";
+  plain.plain_mesh = true;
+  s.push_back(plain);
   return s;
 }
 

@@ -94,6 +94,7 @@ struct PackSetting {
   int gaussian_bits = -1;    // every Gaussian attribute; -1 = the format's defaults
   std::string gaussian_bits_spec;  // per attribute ("offset=10,rotation=6"); overrides gaussian_bits
   std::string mesh_bits_spec;      // mesh Draco bits ("position=14,weight=8"); "" = the format's defaults
+  bool plain_mesh = false;   // --mesh-compression none: plain accessors, no required extension
   std::string texture_codec = "jpg";  // png | jpg | webp
   int texture_quality = PackOptions{}.texture_quality;
   int texture_size = 0;      // 0 = the trained size
