@@ -1,4 +1,4 @@
-// The end-to-end measurement of `haha fit-video --truth DIR` (issue 18): DIR is a native
+// The end-to-end measurement of `haha fit-video --truth DIR`: DIR is a native
 // dataset holding the true fits of the video's frames in order (e.g. the synth/ folder of
 // scripts/make-test-video.sh, whose video.mp4 is its frames 0..N-1), and each kept frame's
 // fit is compared with the true fit of the frame it was decoded as (its source_index): the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU machine's measurements in one call (issue 12): parity and trainer tests, the
+# The GPU machine's measurements in one call: parity and trainer tests, the
 # render benchmark, the paper preset end to end on the GPU, per-kernel times of training
 # steps (Nsight Compute), and CPU thread scaling of both presets.
 #   scripts/gpu-measure.sh BIN OUT [parts...]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The harder benchmark sample set (issue 13; for benchmarks, not run in CI): the default
+# The harder benchmark sample set (for benchmarks, not run in CI): the default
 # subject and subject 2 (another body shape, long loose hair, a loose long coat, mild
 # view-dependent sheen), rendered by `haha synth` at 544 px with realistic fit noise on the
 # stored SMPL-X fits (0.05 rad on every pose value, 2 cm on the translation; the true

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The synthetic test video of `haha fit-video` (issue 18's end-to-end measurement): the
+# The synthetic test video of `haha fit-video` (its end-to-end measurement): the
 # embedded subject rendered by `haha synth` at 512 px with known SMPL-X fits, its frames
 # H.264-encoded with ffmpeg so the keypoint tool sees what a user gives it.
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 18's avatar measurement: is an avatar trained from `haha fit-video`'s fits as good as
+# The avatar measurement of fit-video: is an avatar trained from `haha fit-video`'s fits as good as
 # one trained from the exact fits, on the same held-out frames?
 #
 #   scripts/measure-fit-video.sh OUT [--held-out novel|every:N] [--backdrop black|room]

@@ -2,7 +2,7 @@
 // 20,864 triangles, rest T-pose, 1.7 m tall, 1.8 m wide, about 440 px across) at 512 x 512,
 // its UV atlas (seams) and a 512 x 512 texture; 2 threads (and 1 for comparison).
 //   cmake --build build --target bench_mesh_raster && build/tests/bench_mesh_raster
-// Target (issue 3): rasterization <= 10 ms on 2 cores.
+// Target: rasterization <= 10 ms on 2 cores.
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -2,7 +2,7 @@
 // shortened tiny schedule): haha synth -> haha train -> haha eval as library calls,
 // through the real files (dataset, run directory, avatar npz). Checks the outputs and the
 // method's properties with margins that a shorter schedule still meets (the full tiny
-// preset's numbers are in the report of issue 5):
+// preset's numbers are in docs/results.md):
 //   - filtering removes Gaussians, mostly on the body surface: the head/hair and legs
 //     (skirt) keep a larger share than arms, hands and feet;
 //   - the filtered avatar beats the textured mesh alone and stays close to the full

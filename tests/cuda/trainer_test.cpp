@@ -22,7 +22,7 @@
 //                        stage does not train stay bit for bit;
 //   densify / prune      the same decisions up to statistics within rounding of the
 //                        threshold: counts within max(2, 0.5 %), faces 99 % the same;
-//   300 steps            PSNR of the trained avatar within 0.3 dB (issue 12).
+//   300 steps            PSNR of the trained avatar within 0.3 dB.
 #include <gtest/gtest.h>
 
 #include <algorithm>

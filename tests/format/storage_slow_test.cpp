@@ -1,7 +1,7 @@
 // Storage and quality of packed avatars on a realistic-size avatar (12k Gaussians, full
 // procedural body): bytes per part for each packing option, and the PSNR of renders of the
 // packed avatar against renders of the in-memory original (the same poses and cameras).
-// Must hold (issue 6): the default pack renders within 45 dB of the original; lossless is
+// Must hold: the default pack renders within 45 dB of the original; lossless is
 // exact. The printed table is the README's storage report.
 #include <gtest/gtest.h>
 
