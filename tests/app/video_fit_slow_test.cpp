@@ -3,7 +3,7 @@
 // a sideways walk) seen by a static 512 px camera; its correspondence points projected, 2.5
 // px noise, 10 % visibility dropouts, BlazePose-like hips, with or without BlazePose-like
 // world points (4.5 cm noise), written as keypoint JSON and read back. The fitted body joints (pelvis + 21) after per-frame similarity Procrustes alignment
-// are measured against the 50 mm (mean over the frames). With masks (the true body's
+// are measured against a 50 mm bar (mean over the frames). With masks (the true body's
 // silhouette) the third stage runs and the silhouette IoU is reported.
 #include <gtest/gtest.h>
 
@@ -137,7 +137,7 @@ double fit_clip(double world_noise_m, const char* what, const VideoFitWeights& w
   return pa;
 }
 
-// The bar is 50 mm. Keypoints only (body_world null), the remaining error is mostly
+// The bar is 50 mm. Keypoints only (body_world null), the remaining error is mostly
 // the monocular depth ambiguity of the arms (an elbow bent towards the camera vs a straight
 // arm swung forward) in the frontal frames: measured 42.2 mm (30 of 32 frames kept; 50.6
 // mm with the hips shifted in 2D rather than 3D, the clip's spread; 47.7 mm mean over six
