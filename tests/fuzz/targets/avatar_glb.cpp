@@ -15,13 +15,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   return 0;
 }
 
-// Small valid files: the default pack, lossless, webp.
+// Small valid files: the default pack, lossless, webp, and (version 3) a plain mesh with
+// skinned splats and an edgebreaker mesh. The corpus also keeps seeds of older versions
+// written by earlier packers (seed0-4: versions 2).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   const haha::Avatar a = haha::test::make_test_avatar(40, 2, 8, 8);
-  haha::PackOptions lossy, lossless, webp;
+  haha::PackOptions lossy, lossless, webp, plain;
   lossless.lossless = true;
   webp.texture_codec = haha::TextureCodec::webp;
+  plain.mesh_compression = haha::MeshCompression::none;
+  plain.khr_gaussian_splatting = true;
   int k = 0;
   for (const haha::PackOptions& o : {lossy, lossless, webp})
     haha::fuzz::write_seed(dir, "seed" + std::to_string(k++) + ".glb", haha::pack_avatar(a, o));
+  haha::fuzz::write_seed(dir, "seed5_v3_plain_splats.glb", haha::pack_avatar(a, plain));
+  haha::fuzz::write_seed(dir, "seed6_v3_edgebreaker.glb", haha::pack_avatar(haha::test::without_degenerate_face(a), lossy));
 }
