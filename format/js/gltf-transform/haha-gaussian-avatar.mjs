@@ -68,7 +68,7 @@ const isViewKey = (key) => key === 'bufferView' || /[a-z]BufferView$/.test(key);
 const pointerParts = (pointer) => pointer.split('/').slice(1).map((p) => p.replace(/~1/g, '/').replace(/~0/g, '~'));
 const pointerOf = (parts) => '/' + parts.map((p) => String(p).replace(/~/g, '~0').replace(/\//g, '~1')).join('/');
 
-// Every bufferView slot under `node` (not under `skip`): [{ parts, parent, key }].
+// Every bufferView slot under `node`: [{ parts, parent, key, value }].
 function findViewSlots(node, parts = [], out = []) {
   if (Array.isArray(node)) node.forEach((v, i) => findViewSlots(v, [...parts, i], out));
   else if (isObject(node)) {
@@ -198,27 +198,27 @@ export class HahaGaussianAvatar extends Extension {
 
     const refIndex = (obj, key, list, kind, where) => {
       const i = obj[key];
-      if (!isIndex(i) || i >= list.length) fail(`${where}.${key}: ${JSON.stringify(i)} is not a ${kind} index of this file (${list.length} ${kind}s)`);
+      if (!isIndex(i) || i >= list.length) fail(`${where}.${key}: ${JSON.stringify(i)} is not an index into this file's ${list.length} ${kind}`);
       delete obj[key];
       return list[i];
     };
-    avatar.setBodyMesh(refIndex(body, 'mesh', context.meshes, 'mesh', 'body'));
-    avatar.setBodyNode(refIndex(body, 'node', context.nodes, 'node', 'body'));
-    avatar.setBodySkin(refIndex(body, 'skin', context.skins, 'skin', 'body'));
+    avatar.setBodyMesh(refIndex(body, 'mesh', context.meshes, 'meshes', 'body'));
+    avatar.setBodyNode(refIndex(body, 'node', context.nodes, 'nodes', 'body'));
+    avatar.setBodySkin(refIndex(body, 'skin', context.skins, 'skins', 'body'));
     // body.draco described haha's Draco stream; glTF-Transform decodes the mesh, so it is gone.
     delete body.draco;
     if (!isObject(data.texture)) fail('texture: missing or not an object');
-    avatar.setTexture(refIndex(data.texture, 'image', context.textures, 'image', 'texture'));
+    avatar.setTexture(refIndex(data.texture, 'image', context.textures, 'images', 'texture'));
     if (data.splats !== undefined) {
       if (!isObject(data.splats)) fail('splats: not an object');
-      avatar.setSplatMesh(refIndex(data.splats, 'mesh', context.meshes, 'mesh', 'splats'));
-      avatar.setSplatNode(refIndex(data.splats, 'node', context.nodes, 'node', 'splats'));
+      avatar.setSplatMesh(refIndex(data.splats, 'mesh', context.meshes, 'meshes', 'splats'));
+      avatar.setSplatNode(refIndex(data.splats, 'node', context.nodes, 'nodes', 'splats'));
     }
     const views = json.bufferViews || [];
     for (const slot of findViewSlots(data)) {
       const where = pointerOf(slot.parts).slice(1).replace(/\//g, '.');
       if (!isIndex(slot.value) || slot.value >= views.length) {
-        fail(`${where}: ${JSON.stringify(slot.value)} is not a bufferView index of this file (${views.length} bufferViews)`);
+        fail(`${where}: ${JSON.stringify(slot.value)} is not an index into this file's ${views.length} bufferViews`);
       }
       const bytes = context.bufferViews[slot.value];
       if (!bytes) fail(`${where}: bufferView ${slot.value} has no data`);
