@@ -8,7 +8,7 @@
 // body (default) and exactBody; the raised arm's
 // Gaussian centres against the exact reposing and the faces Babylon skins, the pose set on the
 // joint nodes by hand and played by an AnimationGroup.
-// Usage: babylon_extension_test.mjs --haha PATH [--work DIR] [--size 128] [--frame 3] [--keep]
+// Usage: babylon_extension_test.mjs --haha PATH [--work DIR] [--run-from DIR] [--size 128] [--frame 3] [--keep]
 // Exit codes: 0 pass, 1 fail, 77 skip (no Chromium / node_modules).
 import { engineTest } from './common.mjs';
 

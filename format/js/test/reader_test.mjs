@@ -5,7 +5,7 @@
 // byteOffsets, float or normalized-integer weights and UVs, no indices; the faces reordered and
 // their corners rotated; body.draco dropped), repose to the same Gaussians as the original in
 // a raised-arm pose. Bad files give one-line errors naming the file.
-// Usage: reader_test.mjs --haha PATH [--work DIR] [--keep]   Exit codes: 0 pass, 1 fail, 77 skip.
+// Usage: reader_test.mjs --haha PATH [--work DIR] [--run-from DIR] [--keep]   Exit codes: 0 pass, 1 fail, 77 skip.
 import fs from 'node:fs';
 import path from 'node:path';
 import { SKIP, jsRoot, parseArgs, runner, workDir, tinyRun, packVariants, loadAvatarNode, raisedArmPose } from './common.mjs';
@@ -19,7 +19,7 @@ if (!opts.haha) { console.error('reader_test: --haha PATH is required'); process
 const { Glb } = await import('../glb.js');
 const work = workDir(opts, 'haha-js-reader-');
 const run = runner(opts.haha);
-const runDir = tinyRun(run, work);
+const runDir = tinyRun(run, work, opts['run-from']);
 const variants = packVariants(run, opts.haha, runDir, work);
 let failed = false;
 const fail = (m) => { console.log(`FAIL: ${m}`); failed = true; };

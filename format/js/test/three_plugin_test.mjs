@@ -7,7 +7,7 @@
 // (>= 30 dB), the body GPU-skinned by three.js (default) and exactBody; the Gaussian centres
 // of the raised arm against the exact reposing and the skinned faces, the pose set on the
 // bones by hand and played by an AnimationMixer.
-// Usage: three_plugin_test.mjs --haha PATH [--work DIR] [--size 128] [--frame 3] [--keep]
+// Usage: three_plugin_test.mjs --haha PATH [--work DIR] [--run-from DIR] [--size 128] [--frame 3] [--keep]
 // Exit codes: 0 pass, 1 fail, 77 skip (no Chromium / node_modules).
 import { engineTest } from './common.mjs';
 
