@@ -50,7 +50,7 @@
 // An IL2CPP build on a platform that links plugins statically (iOS) would use
 // DllImport("__Internal") instead: change LibraryName.
 //
-// Conventions (README "Conventions"): SMPL-X rest frame, metres, right-handed, Y up, body
+// Conventions (docs/architecture.md "Conventions"): SMPL-X rest frame, metres, right-handed, Y up, body
 // facing +Z; quaternions (w, x, y, z). Unity is left-handed (Y up, Z forward): mirror X,
 // i.e. position (x, y, z) -> new Vector3(-x, y, z), quaternion (w, x, y, z) ->
 // new Quaternion(x, -y, -z, w), and swap two indices of each triangle (winding). Scales
@@ -301,7 +301,7 @@ namespace Haha
         public AvatarInfo GetInfo()
         {
             AvatarInfo info;
-            Native.Check(Native.haha_avatar_get_info(Handle, out info), "haha_avatar_get_info");
+            Native.Check(Native.haha_avatar_get_info(Live, out info), "haha_avatar_get_info");
             return info;
         }
 
@@ -309,7 +309,7 @@ namespace Haha
         public unsafe void GetFaces(Span<uint> indices)
         {
             fixed (uint* p = &MemoryMarshal.GetReference(indices))
-                Native.Check(Native.haha_avatar_faces(Handle, p, (UIntPtr)indices.Length), "haha_avatar_faces");
+                Native.Check(Native.haha_avatar_faces(Live, p, (UIntPtr)indices.Length), "haha_avatar_faces");
         }
 
         public uint[] GetFaces()
@@ -323,7 +323,7 @@ namespace Haha
         public unsafe void GetFaceUvs(Span<float> uvs)
         {
             fixed (float* p = &MemoryMarshal.GetReference(uvs))
-                Native.Check(Native.haha_avatar_face_uvs(Handle, p, (UIntPtr)uvs.Length), "haha_avatar_face_uvs");
+                Native.Check(Native.haha_avatar_face_uvs(Live, p, (UIntPtr)uvs.Length), "haha_avatar_face_uvs");
         }
 
         public float[] GetFaceUvs()
@@ -337,7 +337,7 @@ namespace Haha
         public unsafe void GetTexture(Span<byte> rgb)
         {
             fixed (byte* p = &MemoryMarshal.GetReference(rgb))
-                Native.Check(Native.haha_avatar_texture(Handle, p, (UIntPtr)rgb.Length), "haha_avatar_texture");
+                Native.Check(Native.haha_avatar_texture(Live, p, (UIntPtr)rgb.Length), "haha_avatar_texture");
         }
 
         public byte[] GetTexture()
@@ -354,9 +354,24 @@ namespace Haha
         }
 
         /// <summary>Frees the avatar; the native free waits for its Posed objects.</summary>
+        /// <summary>Frees the native object (idempotent); later calls throw ObjectDisposedException.</summary>
         public void Dispose()
         {
+            disposed = true;
             Handle.Dispose();
+        }
+
+        bool disposed;
+
+        /// <summary>Handle, or ObjectDisposedException after Dispose (a SafeHandle with
+        /// outstanding references, as an avatar's with live pose states, stays usable).</summary>
+        internal AvatarHandle Live
+        {
+            get
+            {
+                if (disposed) throw new ObjectDisposedException(GetType().FullName);
+                return Handle;
+            }
         }
     }
 
@@ -372,7 +387,7 @@ namespace Haha
         internal Posed(Avatar avatar)
         {
             Avatar = avatar;
-            AvatarHandle a = avatar.Handle;
+            AvatarHandle a = avatar.Live;
             bool added = false;
             PosedHandle h = null;
             try
@@ -415,7 +430,7 @@ namespace Haha
             fixed (float* t = &MemoryMarshal.GetReference(translation))
             fixed (float* b = &MemoryMarshal.GetReference(betas))
             fixed (float* e = &MemoryMarshal.GetReference(expression))
-                Native.Check(Native.haha_repose(Handle, pose.IsEmpty ? null : p, translation.IsEmpty ? null : t,
+                Native.Check(Native.haha_repose(Live, pose.IsEmpty ? null : p, translation.IsEmpty ? null : t,
                                                 betas.IsEmpty ? null : b, (UIntPtr)betas.Length,
                                                 expression.IsEmpty ? null : e, (UIntPtr)expression.Length),
                              "haha_repose");
@@ -425,7 +440,7 @@ namespace Haha
         public unsafe void GetVertices(Span<float> xyz)
         {
             fixed (float* p = &MemoryMarshal.GetReference(xyz))
-                Native.Check(Native.haha_posed_vertices(Handle, p, (UIntPtr)xyz.Length), "haha_posed_vertices");
+                Native.Check(Native.haha_posed_vertices(Live, p, (UIntPtr)xyz.Length), "haha_posed_vertices");
         }
 
         public float[] GetVertices()
@@ -439,7 +454,7 @@ namespace Haha
         public unsafe void GetNormals(Span<float> xyz)
         {
             fixed (float* p = &MemoryMarshal.GetReference(xyz))
-                Native.Check(Native.haha_posed_normals(Handle, p, (UIntPtr)xyz.Length), "haha_posed_normals");
+                Native.Check(Native.haha_posed_normals(Live, p, (UIntPtr)xyz.Length), "haha_posed_normals");
         }
 
         public float[] GetNormals()
@@ -453,7 +468,7 @@ namespace Haha
         public unsafe void GetJoints(Span<float> xyz)
         {
             fixed (float* p = &MemoryMarshal.GetReference(xyz))
-                Native.Check(Native.haha_posed_joints(Handle, p, (UIntPtr)xyz.Length), "haha_posed_joints");
+                Native.Check(Native.haha_posed_joints(Live, p, (UIntPtr)xyz.Length), "haha_posed_joints");
         }
 
         public float[] GetJoints()
@@ -492,7 +507,7 @@ namespace Haha
                     colors = colors.IsEmpty ? null : c,
                     opacities = opacities.IsEmpty ? null : o,
                 };
-                Native.Check(Native.haha_posed_gaussians(Handle, ref arrays), "haha_posed_gaussians");
+                Native.Check(Native.haha_posed_gaussians(Live, ref arrays), "haha_posed_gaussians");
             }
         }
 
@@ -535,13 +550,28 @@ namespace Haha
                 throw new ArgumentException("Render: background needs 3 floats, got " + background.Length);
             Native.haha_camera c = camera.ToNative();
             fixed (float* bg = background)
-                Native.Check(Native.haha_render(Handle, ref c, bg, (uint)flags, format, pixels, (UIntPtr)capacityBytes),
+                Native.Check(Native.haha_render(Live, ref c, bg, (uint)flags, format, pixels, (UIntPtr)capacityBytes),
                              "haha_render");
         }
 
+        /// <summary>Frees the native object (idempotent); later calls throw ObjectDisposedException.</summary>
         public void Dispose()
         {
+            disposed = true;
             Handle.Dispose();
+        }
+
+        bool disposed;
+
+        /// <summary>Handle, or ObjectDisposedException after Dispose (a SafeHandle with
+        /// outstanding references, as an avatar's with live pose states, stays usable).</summary>
+        internal PosedHandle Live
+        {
+            get
+            {
+                if (disposed) throw new ObjectDisposedException(GetType().FullName);
+                return Handle;
+            }
         }
     }
 
@@ -582,7 +612,7 @@ namespace Haha
         {
             if (avatar == null) throw new ArgumentNullException("avatar");
             MotionHandle h;
-            HahaStatus s = Native.haha_motion_load_for_avatar(Native.Utf8z(path), avatar.Handle, out h);
+            HahaStatus s = Native.haha_motion_load_for_avatar(Native.Utf8z(path), avatar.Live, out h);
             return new Motion(s, h, "haha_motion_load_for_avatar");
         }
 
@@ -596,13 +626,28 @@ namespace Haha
                 throw new ArgumentException("GetFrame: translation needs 3 floats, got " + translation.Length);
             fixed (float* p = &MemoryMarshal.GetReference(pose))
             fixed (float* t = &MemoryMarshal.GetReference(translation))
-                Native.Check(Native.haha_motion_frame(Handle, frame, pose.IsEmpty ? null : p, translation.IsEmpty ? null : t),
+                Native.Check(Native.haha_motion_frame(Live, frame, pose.IsEmpty ? null : p, translation.IsEmpty ? null : t),
                              "haha_motion_frame");
         }
 
+        /// <summary>Frees the native object (idempotent); later calls throw ObjectDisposedException.</summary>
         public void Dispose()
         {
+            disposed = true;
             Handle.Dispose();
+        }
+
+        bool disposed;
+
+        /// <summary>Handle, or ObjectDisposedException after Dispose (a SafeHandle with
+        /// outstanding references, as an avatar's with live pose states, stays usable).</summary>
+        internal MotionHandle Live
+        {
+            get
+            {
+                if (disposed) throw new ObjectDisposedException(GetType().FullName);
+                return Handle;
+            }
         }
     }
 
