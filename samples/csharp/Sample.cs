@@ -57,6 +57,11 @@ static class Sample
             Console.Error.WriteLine("Sample: " + e.Message);
             return 1;
         }
+        catch (Exception e) when (e is ArgumentException || e is IOException || e is UnauthorizedAccessException)
+        {
+            Console.Error.WriteLine("Sample: " + e.Message);  // a bad --dump-frame, an OUTDIR that cannot be made
+            return 1;
+        }
     }
 
     static void Run(string avatarPath, string motionPath, string outDir, string modelPath, int size, int dumpFrame)
