@@ -310,8 +310,8 @@ struct BodyArrays {
   std::vector<std::vector<uint8_t>> joints;           // per set (Vg, 4)
   std::vector<std::vector<float>> weights;            // per set (Vg, 4), lossless
   std::vector<std::vector<uint16_t>> codes;           // per set (Vg, 4), lossy
-  std::vector<uint16_t> source16;                     // _BODY_VERTEX: Draco, V <= 65536
-  std::vector<float> source_float;                    // _BODY_VERTEX: plain, or Draco with V > 65536
+  std::vector<uint16_t> source16;                     // _BODY_VERTEX when V <= 65536
+  std::vector<float> source_float;                    // _BODY_VERTEX otherwise
 };
 
 BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const PackOptions& opt) {
@@ -345,7 +345,7 @@ BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const PackOptions&
   }
   if (V <= 65536) r.source16.assign(r.split.source.begin(), r.split.source.end());
   if (V > (1 << 24)) fail("avatar", "more than 2^24 body vertices");
-  r.source_float.assign(r.split.source.begin(), r.split.source.end());
+  if (V > 65536) r.source_float.assign(r.split.source.begin(), r.split.source.end());
   return r;
 }
 
@@ -379,7 +379,7 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
   for (int s = 0; s < r.skin.sets; ++s) {
     mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, r.joints[size_t(s)].data(), 0});
     if (lossless) mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, r.weights[size_t(s)].data(), 0});
-    else mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::u16, 4, r.codes[size_t(s)].data(), 0});
+    else mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::u16, 4, r.codes[size_t(s)].data(), 0, true, true});
   }
   const bool wide_index = r.source16.empty();
   mattrs.push_back({"_BODY_VERTEX", Kind::generic, wide_index ? Type::f32 : Type::u16, 1,
@@ -453,14 +453,8 @@ Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt)
   attrs["POSITION"] = add(r.pos.data(), r.pos.size() * 4, kArrayBuffer,
                           position_bounds(r.pos, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}}));
   if (opt.normals) attrs["NORMAL"] = add(r.nrm.data(), r.nrm.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
-  const bool unit_uv = std::all_of(r.uv.begin(), r.uv.end(), [](float x) { return x >= 0.0f && x <= 1.0f; });
-  if (unit_uv) {  // 16 bits: finer than the Draco default's 12
-    std::vector<uint16_t> q(r.uv.size());
-    for (size_t i = 0; i < q.size(); ++i) q[i] = uint16_t(std::lround(double(r.uv[i]) * 65535.0));
-    attrs["TEXCOORD_0"] = add(q.data(), q.size() * 2, kArrayBuffer, {{"componentType", kUShort}, {"normalized", true}, {"count", Vg}, {"type", "VEC2"}});
-  } else {
-    attrs["TEXCOORD_0"] = add(r.uv.data(), r.uv.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
-  }
+  // Float UVs: Godot 3 ignores `normalized` on integer UVs (measured: one texel everywhere).
+  attrs["TEXCOORD_0"] = add(r.uv.data(), r.uv.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
   for (int s = 0; s < r.skin.sets; ++s) {
     const std::string n = std::to_string(s);
     attrs["JOINTS_" + n] = add(r.joints[size_t(s)].data(), r.joints[size_t(s)].size(), kArrayBuffer,
@@ -468,10 +462,19 @@ Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt)
     attrs["WEIGHTS_" + n] = add(r.codes[size_t(s)].data(), r.codes[size_t(s)].size() * 2, kArrayBuffer,
                                 {{"componentType", kUShort}, {"normalized", true}, {"count", Vg}, {"type", "VEC4"}});
   }
-  // Float (exact integers below 2^24): a vertex attribute's elements must be 4-byte
-  // aligned, and glTF allows no unsigned int vertex attribute.
-  attrs["_BODY_VERTEX"] = add(r.source_float.data(), r.source_float.size() * 4, kArrayBuffer,
-                              {{"componentType", kFloat}, {"count", Vg}, {"type", "SCALAR"}});
+  // Unsigned shorts padded to glTF's 4-byte vertex alignment (byteStride 4), so a tool that
+  // re-encodes the mesh keeps them integers (a float map would be quantized); float (exact
+  // integers) for more vertices: glTF allows no unsigned int vertex attribute.
+  if (!r.source16.empty()) {
+    std::vector<uint16_t> padded(size_t(Vg) * 2, 0);
+    for (int g = 0; g < Vg; ++g) padded[size_t(g) * 2] = r.source16[size_t(g)];
+    const int view = d.bin.add_view(padded.data(), padded.size() * 2, 4, kArrayBuffer, 4);
+    d.sz.mesh += padded.size() * 2;
+    attrs["_BODY_VERTEX"] = d.add_accessor({{"bufferView", view}, {"componentType", kUShort}, {"count", Vg}, {"type", "SCALAR"}});
+  } else {
+    attrs["_BODY_VERTEX"] = add(r.source_float.data(), r.source_float.size() * 4, kArrayBuffer,
+                                {{"componentType", kFloat}, {"count", Vg}, {"type", "SCALAR"}});
+  }
   int indices;
   if (Vg <= 65535) {
     const std::vector<uint16_t> idx(r.split.faces.begin(), r.split.faces.end());

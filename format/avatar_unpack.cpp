@@ -211,7 +211,7 @@ class AvatarReader {
     }
     const Json& dattrs = member(kdraco, "attributes", where_, K);
     m_.pos = dec.floats(draco_id(dattrs, "POSITION", K), 3, "POSITION");
-    m_.uv = dec.floats(draco_id(dattrs, "TEXCOORD_0", K), 2, "TEXCOORD_0");
+    m_.uv = draco_values(dec, dattrs, "TEXCOORD_0", 2);
     if (jd_) {
       if (const Json* m = find_member(*jd_, "method")) {
         const std::string method = as_string(*m, where_, B + ".draco.method");
@@ -241,21 +241,27 @@ class AvatarReader {
     for (int64_t s = 0; s < skin_sets_; ++s) {
       const std::string jn = "JOINTS_" + std::to_string(s), wn = "WEIGHTS_" + std::to_string(s);
       m_.joints.push_back(dec.ints(draco_id(dattrs, jn, K), 4, jn));
-      // The accessor says how the stream stores them: float, or normalized unsigned ints.
-      const Json& wacc = element(root_, "accessors", as_int(member(*pattrs_, wn.c_str(), where_, P_ + ".attributes"), where_,
-                                                            P_ + ".attributes." + wn, 0, kMaxCount), where_);
-      const int64_t type = as_int(member(wacc, "componentType", where_, wn + " accessor"), where_, wn + " accessor.componentType", 5120, 5126);
-      if (type == 5126) {
-        m_.weights.push_back(dec.floats(draco_id(dattrs, wn, K), 4, wn));
-      } else if (type == 5121 || type == 5123) {
-        const double full = type == 5121 ? 255.0 : 65535.0;
-        std::vector<float> w;
-        for (int64_t c : dec.ints(draco_id(dattrs, wn, K), 4, wn)) w.push_back(float(double(c) / full));
-        m_.weights.push_back(std::move(w));
-      } else {
-        fail(where_, wn + " accessor: componentType " + std::to_string(type) + " is not a glTF weight type");
-      }
+      m_.weights.push_back(draco_values(dec, dattrs, wn, 4));
     }
+  }
+
+  // A decoded Draco attribute as the primitive's accessor says it is stored: float, or
+  // normalized unsigned integers (weights; UVs of a plain file a tool re-encoded).
+  std::vector<float> draco_values(const dracoio::Decoded& dec, const Json& dattrs, const std::string& name, int comps) {
+    const std::string K = P_ + ".KHR_draco_mesh_compression";
+    const Json& acc = element(root_, "accessors", as_int(member(*pattrs_, name.c_str(), where_, P_ + ".attributes"), where_,
+                                                         P_ + ".attributes." + name, 0, kMaxCount), where_);
+    const int64_t type = as_int(member(acc, "componentType", where_, name + " accessor"), where_, name + " accessor.componentType", 5120, 5126);
+    const int id = draco_id(dattrs, name, K);
+    if (type == 5126) return dec.floats(id, comps, name);
+    const Json* n = find_member(acc, "normalized");
+    if ((type != 5121 && type != 5123) || !n || !n->is_boolean() || !n->get<bool>()) {
+      fail(where_, name + " accessor: componentType " + std::to_string(type) + " (not float or normalized unsigned byte / short)");
+    }
+    const double full = type == 5121 ? 255.0 : 65535.0;
+    std::vector<float> out;
+    for (int64_t c : dec.ints(id, comps, name)) out.push_back(float(double(c) / full));
+    return out;
   }
 
   // Plain accessors into m_ (version 3; any layout glTF allows, e.g. as rewritten by tools).

@@ -62,7 +62,7 @@ Encoded encode(int num_points, const std::vector<AttrIn>& attrs, const int32_t* 
     if (a.components < 1 || a.components > 16) fail(where, a.name + ": bad component count");
     draco::GeometryAttribute ga;
     const size_t stride = type_size(a.type) * size_t(a.components);
-    ga.Init(to_draco(a.kind), nullptr, uint8_t(a.components), to_draco(a.type), false, int64_t(stride), 0);
+    ga.Init(to_draco(a.kind), nullptr, uint8_t(a.components), to_draco(a.type), a.normalized, int64_t(stride), 0);
     // Identity mapping: point i owns value i, nothing is deduplicated or reordered.
     const int id = pc->AddAttribute(ga, true, uint32_t(num_points));
     if (id < 0) fail(where, a.name + ": Draco could not add the attribute");
@@ -169,8 +169,15 @@ Decoded::Decoded(const uint8_t* data, size_t size, bool expect_mesh, std::string
   const StreamHeader h = peek(data, size, where_, what_);
   method_ = h.method;
   if (h.mesh != expect_mesh) fail(where_, what_ + (expect_mesh ? ": Draco stream is not a triangle mesh" : ": Draco stream is not a point cloud"));
-  if (expected_points >= 0 && int64_t(h.num_points) != expected_points) {
-    fail(where_, what_ + ": Draco stream has " + std::to_string(h.num_points) + " points, the file says " + std::to_string(expected_points));
+  // A point cloud's header holds its point count. A mesh's holds the connectivity's
+  // vertices, which an encoder that merged equal values (glTF-Transform's) keeps below the
+  // decoded points (corners split again where an attribute differs): at most the count
+  // here, exactly it once decoded.
+  auto wrong_count = [&](int64_t n) {
+    fail(where_, what_ + ": Draco stream has " + std::to_string(n) + " points, the file says " + std::to_string(expected_points));
+  };
+  if (expected_points >= 0 && (expect_mesh ? int64_t(h.num_points) > expected_points : int64_t(h.num_points) != expected_points)) {
+    wrong_count(int64_t(h.num_points));
   }
   if (expected_faces >= 0 && int64_t(h.num_faces) != expected_faces) {
     fail(where_, what_ + ": Draco stream has " + std::to_string(h.num_faces) + " faces, the file says " + std::to_string(expected_faces));
@@ -189,6 +196,7 @@ Decoded::Decoded(const uint8_t* data, size_t size, bool expect_mesh, std::string
     if (!m) fail(where_, what_ + ": Draco stream does not decode");
     mesh_ = m.get();
     pc_ = std::move(m);
+    if (expected_points >= 0 && int64_t(pc_->num_points()) != expected_points) wrong_count(int64_t(pc_->num_points()));
   } else {
     auto r = decoder.DecodePointCloudFromBuffer(&buf);
     if (!r.ok()) fail(where_, what_ + ": Draco stream does not decode: " + r.status().error_msg());

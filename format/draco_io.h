@@ -33,6 +33,9 @@ struct AttrIn {
   // Off for attributes whose consecutive values are unrelated: the delta of two independent
   // values costs more bits than the value.
   bool predict = true;
+  // Integers that stand for [0, 1] (glTF's normalized accessors, e.g. skin weights): the
+  // stream says so too, as decoders that read its flag expect.
+  bool normalized = false;
 };
 
 struct Encoded {
@@ -66,7 +69,9 @@ inline constexpr uint64_t kMaxPointsPerByte = 16;
 
 // A decoded Draco stream. Every accessor checks type, component count and sizes and
 // throws haha::Error "<where>: <what>: <problem>" on mismatch. `expected_points` /
-// `expected_faces` (>= 0) are checked against the stream's header BEFORE decoding.
+// `expected_faces` (>= 0) are checked against the stream's header BEFORE decoding (a mesh's
+// header may count fewer points: its connectivity's vertices; then the decoded count must
+// match).
 class Decoded {
  public:
   Decoded(const uint8_t* data, size_t size, bool expect_mesh, std::string where, std::string what,

@@ -43,13 +43,14 @@ uint32_t crc32(const uint8_t* data, size_t size) {
   return c ^ 0xFFFFFFFFu;
 }
 
-int BinWriter::add_view(const void* data, size_t size, int align, int target) {
+int BinWriter::add_view(const void* data, size_t size, int align, int target, int byte_stride) {
   while (bin_.size() % size_t(align)) bin_.push_back(0);
   const size_t offset = bin_.size();
   const auto* p = static_cast<const uint8_t*>(data);
   bin_.insert(bin_.end(), p, p + size);
   Json v = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", size}};
   if (target > 0) v["target"] = target;
+  if (byte_stride > 0) v["byteStride"] = byte_stride;
   views_.push_back(v);
   sizes_.push_back(size);
   crcs_.push_back(crc32(p, size));

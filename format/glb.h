@@ -22,9 +22,10 @@ uint32_t crc32(const uint8_t* data, size_t size);
 class BinWriter {
  public:
   // Appends `size` bytes (aligned to `align`, zero padding) as a new bufferView and
-  // returns its index. `target` (34962 ARRAY_BUFFER / 34963 ELEMENT_ARRAY_BUFFER) is
-  // written when > 0. byteStride is never written (all data is tightly packed).
-  int add_view(const void* data, size_t size, int align = 4, int target = 0);
+  // returns its index. `target` (34962 ARRAY_BUFFER / 34963 ELEMENT_ARRAY_BUFFER) and
+  // `byte_stride` are written when > 0 (a stride only where elements are padded to glTF's
+  // 4-byte vertex alignment; everything else is tightly packed).
+  int add_view(const void* data, size_t size, int align = 4, int target = 0, int byte_stride = 0);
   const std::vector<uint8_t>& bytes() const { return bin_; }
   const Json& views() const { return views_; }
   size_t view_size(int view) const { return sizes_.at(size_t(view)); }

@@ -163,10 +163,10 @@ TEST(FormatBadInput, PlainMeshAccessors) {
   // Values: a vertex map entry and an index out of range.
   expect_error(edited(f.plain, [&](Json& j, std::vector<uint8_t>& bin) {
                  const Json& bv = j["bufferViews"][attr(j, "_BODY_VERTEX")["bufferView"].get<size_t>()];
-                 const float big = float(1 << 30);
-                 std::memcpy(&bin[bv["byteOffset"].get<size_t>()], &big, 4);
+                 const uint16_t big = 60000;
+                 std::memcpy(&bin[bv["byteOffset"].get<size_t>() + 4], &big, 2);
                }),
-               "_BODY_VERTEX 1073741824 out of range");
+               "_BODY_VERTEX 60000 out of range");
   expect_error(edited(f.plain, [&](Json& j, std::vector<uint8_t>& bin) {
                  const Json& acc = j["accessors"][j["meshes"][0]["primitives"][0]["indices"].get<size_t>()];
                  const Json& bv = j["bufferViews"][acc["bufferView"].get<size_t>()];
