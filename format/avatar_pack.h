@@ -29,7 +29,7 @@ inline constexpr int kOldestAvatarFormatVersion = 1;  // readers still load vers
 // Gaussians, renders of the unpacked file vs the trained avatar on the test poses):
 // 8/6/6/6/5 bits = 7.9 B per Gaussian at 59.9 dB; the former 12/10/8/7/7 = 12.4 B at
 // 62.1 dB; uniform 6 bits 7.3 B at 55.0 dB. One bit less from 8/6/6/6/6 (60.0 dB):
-// offset 9 -> 8 cost 0.55 dB, scale 6 -> 5 0.49 dB, opacity 6 -> 5 0.16 dB (README).
+// offset 9 -> 8 cost 0.55 dB, scale 6 -> 5 0.49 dB, opacity 6 -> 5 0.16 dB (docs/results.md).
 struct GaussianBits {
   int offset = 8;     // local offset, uniform over its bounding box
   int rotation = 6;   // "smallest three" quaternion components in [-1/sqrt 2, 1/sqrt 2]
@@ -73,7 +73,7 @@ struct PackOptions {
   MeshBits mesh_bits;
   // JPEG (4:4:4, quality 90) by default: every glTF viewer reads it, and on the trained
   // demo avatar q90 with the embedded correctives stays above the 45 dB budget (q85 did
-  // not; README "Storage"); png is lossless 8-bit; webp is smaller but makes
+  // not; docs/results.md "Storage"); png is lossless 8-bit; webp is smaller but makes
   // EXT_texture_webp a required extension.
   TextureCodec texture_codec = TextureCodec::jpg;  // webp q95 is smaller but fell below 45 dB on a trained texture (haha bench)
   int texture_quality = 90;  // jpg / webp

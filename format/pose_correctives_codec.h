@@ -25,7 +25,7 @@ namespace haha {
 struct PoseCorrectiveCodec {
   // Chosen on the trained demo avatar (haha bench --corrective-sets, 50 poses) and on the
   // procedural body and the dense stand-in (tests/format/pose_correctives_slow_test.cpp);
-  // figures in the README's storage section. Threshold 0.05 cost 0.5 dB on the demo's
+  // figures in docs/results.md "Storage". Threshold 0.05 cost 0.5 dB on the demo's
   // training poses against 0.02; t=0.01 with 8 bits costs 41 % more bytes for 0.4 dB there.
   double threshold = 0.02;  // keep blocks with norm > threshold x the joint's largest block norm
   int rank = 4;             // at most this many mixing rows per joint, 1..9

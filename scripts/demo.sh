@@ -40,9 +40,12 @@ step() {  # step NAME: prints a banner with the elapsed time
 
 step build "install dependencies and build the haha command (scripts/build.sh --target haha)"
 if [ "$build" = 1 ]; then
-  # The tests and benchmarks are built by scripts/test.sh (which also installs Chromium for
-  # the web viewer's browser test; the demo does not need it).
-  HAHA_NO_BROWSER=1 bash scripts/build.sh --target haha
+  # Only what the demo runs: the `haha` command, without the tests' npm packages, browser
+  # and keypoint tool (scripts/test.sh installs those), and without the CUDA objects where
+  # no GPU answers nvidia-smi (nothing here would run them; test.sh builds them).
+  cuda=OFF
+  if nvidia-smi -L 2>/dev/null | grep -q '^GPU'; then cuda=ON; fi
+  HAHA_BUILD_ONLY=1 bash scripts/build.sh --target haha -DHAHA_WITH_CUDA=$cuda
 fi
 [ -x "$haha" ] || { echo "demo.sh: $haha is not built (run without --no-build)" >&2; exit 1; }
 
@@ -50,7 +53,7 @@ fi
 if [ -e "$out" ] && [ -n "$(ls -A "$out" 2>/dev/null)" ]; then
   if [ -f "$out/.haha-demo" ]; then
     rm -rf "$out/data" "$out/run" "$out/render" "$out/avatar.glb" "$out/motion_wave.npz" "$out/animation.mp4" \
-           "$out/animation.gif"
+           "$out/animation.gif" "$out/animation_strip.png"
   else
     echo "demo.sh: $out exists and is not a previous demo's output; choose another --out" >&2; exit 1
   fi
@@ -78,6 +81,9 @@ step render "repose with a new motion (waving, never seen in training) and rende
 # A GIF too: it plays inline in browsers, chat and Markdown viewers.
 ffmpeg -y -loglevel error -framerate 24 -i "$out/render/frame_%05d.png" \
   -vf "split[a][b];[a]palettegen=max_colors=128[p];[b][p]paletteuse" "$out/animation.gif"
+# And a strip of every eighth frame, cropped to the person (README's picture is one).
+ffmpeg -y -loglevel error -i "$out/render/frame_%05d.png" \
+  -vf "select='not(mod(n\,8))',crop=iw*0.45:ih*0.92:iw*0.27:0,tile=6x1" -frames:v 1 "$out/animation_strip.png"
 
 step done "finished"
 printf '\nstage times:\n'
@@ -90,7 +96,7 @@ Results (in $out):
   report         $out/run/report.md            (PSNR / SSIM / Gaussians / storage / training time per variant)
   contact sheet  $out/run/eval_sheet.png       (ground truth | HAHA | error | Gaussian layer | mesh only | full Gaussians)
   training data  $out/data/contact_sheet.png   (the synthetic video and its novel test poses)
-  animation      $out/animation.mp4  and  $out/animation.gif   (new motion, $(ls "$out/render" | wc -l) frames)
+  animation      $out/animation.mp4, $out/animation.gif, $out/animation_strip.png   (new motion, $(ls "$out/render" | wc -l) frames)
 Next: speed and size against error (about 2 minutes on 2 cores) with
   OMP_WAIT_POLICY=passive $haha bench --run $out/run --out $out/bench
 EOF

@@ -5,9 +5,9 @@
 #   scripts/gpu-measure.sh BIN OUT [parts...]
 # BIN holds the programs (test_cuda_parity_test, test_cuda_trainer_test, bench_cuda,
 # train_bench: none links an I/O library; lib/ beside them is put on LD_LIBRARY_PATH; see
-# docs/gpu-notes.md); one log (and JSON) per run is packed into OUT/gpu-measure.tgz at the
+# docs/cuda.md); one log (and JSON) per run is packed into OUT/gpu-measure.tgz at the
 # end, alone in OUT (the device tool brings back 8 files). Parts: tests bench paper tiny
-# kernels scaling (default: all, in that order). Measured with it: README "CUDA backend".
+# kernels scaling (default: all, in that order). Measured with it: docs/results.md.
 set -uo pipefail
 BIN=${1:?usage: gpu-measure.sh BIN OUT [parts...]}
 OUT=${2:?usage: gpu-measure.sh BIN OUT [parts...]}

@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages haha builds against (skips apt when all are present).
+# Installs the Debian 12 packages haha builds against (skips apt when all are present), and
+# the pinned npm packages and Chromium the tests use. HAHA_BUILD_ONLY=1 (the demo) installs
+# only what building and running `haha` needs: no node, npm packages or browser.
 set -euo pipefail
+if [ "${HAHA_BUILD_ONLY:-0}" = 1 ]; then
+  export HAHA_NO_BROWSER=1 HAHA_NO_KEYPOINTS=1
+fi
 pkgs=(build-essential cmake ninja-build pkg-config git
       libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libopenmesh-dev
       libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev
@@ -10,7 +15,7 @@ for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 # Node.js runs the Khronos glTF validator in the tests; any node >= 18 with npm will do.
-command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
+[ "${HAHA_BUILD_ONLY:-0}" = 1 ] || command -v npm >/dev/null 2>&1 || missing+=(nodejs npm)
 # Debian's Chromium drives the web viewer's browser test (CTest web_viewer, samples/web;
 # measured: 34 s to install on the 2-core VM). HAHA_NO_BROWSER=1 leaves it out; the test
 # then reports itself skipped.
@@ -23,6 +28,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+[ "${HAHA_BUILD_ONLY:-0}" = 1 ] && exit 0
 # The Khronos glTF validator (npm, pinned by tools/validator/package-lock.json) for the format tests.
 if [ ! -d "$(dirname "$0")/../tools/validator/node_modules/gltf-validator" ]; then
   npm ci --prefix "$(dirname "$0")/../tools/validator" --no-audit --no-fund --loglevel=error >/dev/null

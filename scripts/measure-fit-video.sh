@@ -19,7 +19,7 @@
 #        held-out frames usually are.
 #    The exact dataset gets the fitted one's split (OUT/synth_split);
 # 3. trains the tiny preset (--preset) on both datasets with the same settings (--train;
-#    default the README's recommendation for imperfect fits) and evaluates both on the test
+#    default the recommendation (docs/fit-video.md) for imperfect fits) and evaluates both on the test
 #    split with the same options (--eval). The fitted avatar is evaluated with its fitted
 #    test poses (and test-time pose optimisation) against the same ground-truth pixels as
 #    the exact one:

@@ -4,7 +4,9 @@
 # `scripts/test.sh -L fast` runs the fast ones, `scripts/test.sh -L gpu` the GPU ones.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh
+# The CUDA backend is compiled wherever nvcc is (its gpu tests run only where a GPU is);
+# ON explicitly, since a demo build without a GPU may have turned it off in the cache.
+bash scripts/build.sh -DHAHA_WITH_CUDA=ON
 cd build
 # Passive OpenMP waiting: ctest runs several test programs at once on few cores.
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}

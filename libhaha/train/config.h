@@ -67,7 +67,7 @@ struct Stage1Config {
   // a per-view gradient, so the same at any batch size). The release's 5e-5 sits at the
   // median of this statistic with these losses (every other visible Gaussian would
   // densify); 2e-4 is about the 90th percentile on the synthetic subject at batch 1 and 4
-  // (tiny preset, measured: README "Results on the embedded sample").
+  // (tiny preset, measured: docs/results.md "Results on the embedded sample").
   double densify_grad = 2e-4;
   double densify_clone_scale = 0.005;  // max local scale <= this: clone, else split
   double densify_split_div = 1.6;   // split children's scales are divided by this

@@ -6,7 +6,7 @@
 //
 // URL parameters (all optional except avatar):
 //   avatar=URL      the .glb                    motion=URL    the .npz (default: rest pose)
-//   camera=URL      cam.json (OpenCV, README "Conventions"): fixed camera, same pixels as
+//   camera=URL      cam.json (OpenCV, docs/architecture.md "Conventions"): fixed camera, same pixels as
 //                   `haha render --camera`; otherwise a framing camera + orbit controls
 //   size=PX         canvas size without camera= (default 512)
 //   frame=I         start at frame I           play=0        start paused

@@ -3,7 +3,7 @@
 // joint) and on the dense stand-in for SMPL-X (tests/support/format_dense_correctives.h).
 // Error: posed vertices (LBS in double) with the decoded correctives against the exact
 // ones, over generic poses (every joint's axis-angle ~ N(0, 0.35 rad) per component).
-// Prints the table the README's storage section quotes.
+// Prints the table docs/results.md's storage section quotes.
 #include <gtest/gtest.h>
 
 #include <chrono>

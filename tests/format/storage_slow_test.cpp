@@ -2,7 +2,7 @@
 // procedural body): bytes per part for each packing option, and the PSNR of renders of the
 // packed avatar against renders of the in-memory original (the same poses and cameras).
 // Must hold: the default pack renders within 45 dB of the original; lossless is
-// exact. The printed table is the README's storage report.
+// exact. The printed table is docs/results.md's storage report.
 #include <gtest/gtest.h>
 
 #include <chrono>

@@ -1,4 +1,4 @@
-// The install package and the samples, end to end, with the commands README "Embedding"
+// The install package and the samples, end to end, with the commands docs/embedding.md
 // documents: `cmake --install` into a temporary prefix (only the runtime lands there, and
 // the library's dependencies resolve from the system), samples/c built with one `cc` line
 // through pkg-config, samples/cpp built with find_package(haha); both run on a small
@@ -110,7 +110,7 @@ TEST(RuntimeSamples, InstallThenBuildAndRunTheSamplesAgainstThePrefix) {
   ASSERT_EQ(sh("ldd " + q(prefix / "lib/libhaha_runtime.so"), &out), 0) << out;
   EXPECT_EQ(out.find("not found"), std::string::npos) << out;
 
-  // samples/c with the one documented command (README "Embedding"), run from the source tree.
+  // samples/c with the one documented command (docs/embedding.md), run from the source tree.
   const fs::path sample_c = tmp.path / "haha_sample_c";
   const std::string build_c = "cd " + q(src) + " && export PKG_CONFIG_PATH=" + q(prefix / "lib/pkgconfig") +
                               " && cc -std=c99 -O2 samples/c/haha_sample_c.c $(pkg-config --cflags --libs haha_runtime)"

@@ -1,4 +1,4 @@
-// OpenCV pinhole cameras (README "Conventions", io/camera_json.h) <-> three.js matrices.
+// OpenCV pinhole cameras (docs/architecture.md "Conventions", io/camera_json.h) <-> three.js matrices.
 //
 // cam.json: {"width":W,"height":H,"K":[[fx,0,cx],[0,fy,cy],[0,0,1]],
 //            "world_to_camera":[[..4..] x 4],"near":0.01,"far":100}
