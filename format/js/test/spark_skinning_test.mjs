@@ -159,6 +159,15 @@ try {
   for (let i = 0; i < N; i++) restMax = Math.max(restMax, dist(sRest.out, i, pos, i));
   console.log(`Spark's centres vs the file's POSITION: max |diff| ${centreDiff}; 8-bit weight codes not summing to 255: ${badSum}; ` +
               `rest pose skinned vs POSITION: max ${mm(restMax)}`);
+  // What the file's weights given to setSplatBones as they are would do: codes round(w * 255)
+  // that do not sum to 255 scale the splat about the origin (reported, not used).
+  let naiveBad = 0, naiveMove = 0;
+  for (let i = 0; i < N; i++) {
+    let s = 0;
+    for (let k = 0; k < 4; k++) s += Math.round(w16[4 * i + k] / 65535 * 255);
+    if (s !== 255) { naiveBad++; naiveMove = Math.max(naiveMove, Math.abs(s / 255 - 1) * Math.hypot(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2])); }
+  }
+  console.log(`  (WEIGHTS_0 rounded to 8 bits one by one: ${naiveBad} splats' codes would not sum to 255, moving them up to ${mm(naiveMove)} at rest)`);
   if (centreDiff !== 0) fail('Spark does not hold the file\'s float32 centres');
   if (badSum) fail(`${badSum} splats with 8-bit weights not summing to 1`);
   if (!(restMax <= 1e-5)) fail('rest pose does not keep the splats at POSITION');
