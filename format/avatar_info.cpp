@@ -195,6 +195,7 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   for (auto& e : i.extensions_used) o << " " << e;
   o << "; required:";
   for (auto& e : i.extensions_required) o << " " << e;
+  if (i.extensions_required.empty()) o << " none";
   o << "\n";
   o << "storage compared\n";
   std::snprintf(buf, sizeof buf, "%.3f", r.file_vs_paper);

@@ -115,8 +115,9 @@ struct SkinSets {
 // exactly 65535 (glTF's rule, so they sum to 1 after decoding): every weight but the
 // largest is a multiple of 2^(16 - bits), together rounded to the multiple nearest their
 // sum and shared by largest remainders (each within one step); the largest takes the rest
-// (within half a step). `bits` 0 or >= 16: every code.
-std::vector<uint16_t> weight_codes(const std::vector<std::pair<float, int>>& list, int bits) {
+// (within half a step). `bits` 0 or >= 16: every code. `full`: the total (65535; 255 for
+// 8-bit codes).
+std::vector<uint16_t> weight_codes(const std::vector<std::pair<float, int>>& list, int bits, int full = 65535) {
   const double step = bits <= 0 || bits >= 16 ? 1.0 : double(1u << (16 - bits));
   double sum = 0;
   for (const auto& [w, j] : list) sum += w;
@@ -126,7 +127,7 @@ std::vector<uint16_t> weight_codes(const std::vector<std::pair<float, int>>& lis
   double others = 0;
   int64_t given = 0;
   for (size_t i = 1; i < list.size(); ++i) {
-    const double t = list[i].first / sum * 65535.0 / step;
+    const double t = list[i].first / sum * double(full) / step;
     others += t;
     m[i] = int64_t(std::floor(t));
     given += m[i];
@@ -137,7 +138,7 @@ std::vector<uint16_t> weight_codes(const std::vector<std::pair<float, int>>& lis
   for (size_t k = 0; given < units && k < rest.size(); ++k, ++given) ++m[rest[k].second];
   int64_t taken = 0;
   for (size_t i = 1; i < list.size(); ++i) taken += (codes[i] = uint16_t(double(m[i]) * step));
-  codes[0] = uint16_t(65535 - taken);
+  codes[0] = uint16_t(full - taken);
   return codes;
 }
 
@@ -791,7 +792,7 @@ void add_compact_pose_correctives(GlbDoc& d, const BodyModel& b, const PoseCorre
 // Skin weights of each Gaussian for a skinning-aware splat renderer: its face's three
 // vertex weights blended at the barycentric point of its rest centre projected onto the
 // face (negative coordinates set to zero, then renormalised), the four largest kept, as
-// unsigned-short codes summing to 65535. Returns joints (N, 4) and codes (N, 4).
+// unsigned-short codes summing to 65535, multiples of 257. Returns joints (N, 4), codes (N, 4).
 void splat_skin(const Avatar& a, const RestBody& rest, const std::vector<float>& means, std::vector<uint8_t>& joints,
                 std::vector<uint16_t>& codes) {
   const BodyModel& b = a.body;
@@ -826,10 +827,12 @@ void splat_skin(const Avatar& a, const RestBody& rest, const std::vector<float>&
     std::stable_sort(list.begin(), list.end(), [](auto& l, auto& r) { return l.first > r.first; });
     if (list.size() > 4) list.resize(4);
     if (list.empty()) list.push_back({1.0f, 0});
-    const std::vector<uint16_t> c = weight_codes(list, 16);
+    // 8-bit codes summing to 255, stored times 257 (still summing to 65535): renderers that
+    // keep 8 bits per weight (Spark) then read exactly the file's weights.
+    const std::vector<uint16_t> c = weight_codes(list, 16, 255);
     for (size_t k = 0; k < list.size(); ++k) {
       joints[i * 4 + k] = uint8_t(list[k].second);
-      codes[i * 4 + k] = c[k];
+      codes[i * 4 + k] = uint16_t(c[k] * 257);
     }
   }
 }

@@ -307,11 +307,17 @@ class AvatarReader {
         if (!std::isfinite(m_.pos[size_t(i) * 3 + k])) fail(where_, "body mesh: non-finite POSITION at vertex " + std::to_string(i));
     }
     if (m_.faces.size() % 3) fail(where_, "body mesh: index count is not a multiple of 3");
+    // Bytes of the bufferViews the mesh's accessors use, each counted once (a tool may
+    // interleave several attributes in one).
+    std::set<int64_t> views;
+    auto add_view_of = [&](const Json& index, const std::string& what) {
+      const Json& acc = element(root_, "accessors", as_int(index, where_, what, 0, kMaxCount), where_);
+      if (const Json* bv = find_member(acc, "bufferView")) views.insert(as_int(*bv, where_, what + ".bufferView", 0, kMaxCount));
+    };
+    for (auto& [k, v] : pattrs_->items()) add_view_of(v, P_ + ".attributes." + k);
+    if (const Json* ind = find_member(prim, "indices")) add_view_of(*ind, P_ + ".indices");
     info_.sizes.mesh = 0;
-    for (auto& [k, v] : pattrs_->items()) {
-      const Json& acc = element(root_, "accessors", as_int(v, where_, P_ + ".attributes." + k, 0, kMaxCount), where_);
-      if (const Json* bv = find_member(acc, "bufferView")) info_.sizes.mesh += glb::buffer_view(g_, int(as_int(*bv, where_, "accessor.bufferView", 0, kMaxCount)), where_).size;
-    }
+    for (int64_t v : views) info_.sizes.mesh += glb::buffer_view(g_, int(v), where_).size;
   }
 
   // Skinning weights: every JOINTS_n/WEIGHTS_n set scattered back to the dense (V, 55) array.

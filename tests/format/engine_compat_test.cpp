@@ -282,7 +282,11 @@ TEST(FormatEngineCompat, SplatsAreSkinnedAndFollowTheSkeleton) {
   ASSERT_EQ(int(means.size()), N * 3);
   for (int i = 0; i < N; ++i) {
     int64_t sum = 0;
-    for (int k = 0; k < 4; ++k) sum += std::llround(weights.values[size_t(i) * 4 + size_t(k)] * 65535.0);
+    for (int k = 0; k < 4; ++k) {
+      const int64_t c = std::llround(weights.values[size_t(i) * 4 + size_t(k)] * 65535.0);
+      ASSERT_EQ(c % 257, 0) << "splat " << i;  // exact in 8 bits
+      sum += c;
+    }
     ASSERT_EQ(sum, 65535) << "splat " << i;
   }
   // Pose: the left arm raised above the head and its elbow bent, the rest still.
