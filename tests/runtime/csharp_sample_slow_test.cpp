@@ -25,7 +25,7 @@
 #include "haha/haha_runtime.h"
 #include "io/image.h"
 #include "io/npy.h"
-#include "support/format_test_avatar.h"
+#include "support/runtime_sample_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -54,35 +54,7 @@ std::string missing_mono() {
   return "";
 }
 
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const char* name)
-      : path(fs::temp_directory_path() / (std::string(name) + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-// A small avatar (.glb) and a 3-frame AMASS-style motion (as tests/runtime/samples_slow_test.cpp).
-void write_inputs(const fs::path& glb, const fs::path& motion) {
-  write_avatar_glb(test::make_test_avatar(300), glb.string(), PackOptions{});
-  const int T = 3;
-  std::vector<float> poses(size_t(T) * 165, 0.0f), trans(size_t(T) * 3, 0.0f);
-  for (int t = 0; t < T; ++t) {
-    poses[size_t(t) * 165 + 3 * 16 + 2] = -0.5f * float(t);  // left shoulder down
-    poses[size_t(t) * 165 + 1] = 0.3f * float(t);            // turn
-    trans[size_t(t) * 3] = 0.05f * float(t);
-  }
-  Npz z;
-  z.set("poses", NpyArray::from(poses, {T, 165}));
-  z.set("trans", NpyArray::from(trans, {T, 3}));
-  z.set("mocap_frame_rate", NpyArray::from(std::vector<double>{30.0}, {}));
-  z.write(motion.string());
-}
+using SampleTempDir = test::SampleTempDir;
 
 // Compiles C# sources (paths relative to the source tree) into an .exe with mcs.
 void build_cs(const std::vector<std::string>& sources, const fs::path& exe) {
@@ -137,9 +109,9 @@ std::vector<uint8_t> png_pixels(const fs::path& p, int* w, int* h) {
 TEST(CSharpSample, BuildsWithMcsAndReadsBackWhatTheCApiGives) {
   const std::string why = missing_mono();
   if (!why.empty()) GTEST_SKIP() << why;
-  TempDir tmp("haha_csharp_sample");
+  SampleTempDir tmp("haha_csharp_sample");
   const fs::path glb = tmp.path / "avatar.glb", motion = tmp.path / "motion.npz";
-  write_inputs(glb, motion);
+  test::write_sample_inputs(glb, motion);
   const fs::path exe = tmp.path / "Sample.exe", frames = tmp.path / "frames_cs";
   build_cs({"samples/csharp/Haha.cs", "samples/csharp/Sample.cs"}, exe);
   if (HasFatalFailure()) return;
@@ -243,9 +215,9 @@ TEST(CSharpSample, BuildsWithMcsAndReadsBackWhatTheCApiGives) {
 TEST(CSharpSample, BindingChecks) {
   const std::string why = missing_mono();
   if (!why.empty()) GTEST_SKIP() << why;
-  TempDir tmp("haha_csharp_binding");
+  SampleTempDir tmp("haha_csharp_binding");
   const fs::path glb = tmp.path / "avatar.glb", motion = tmp.path / "motion.npz";
-  write_inputs(glb, motion);
+  test::write_sample_inputs(glb, motion);
   const fs::path exe = tmp.path / "BindingChecks.exe";
   build_cs({"samples/csharp/Haha.cs", "tests/runtime/csharp/BindingChecks.cs"}, exe);
   if (HasFatalFailure()) return;

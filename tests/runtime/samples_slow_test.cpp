@@ -15,7 +15,7 @@
 #include "format/avatar_pack.h"
 #include "io/image.h"
 #include "io/npy.h"
-#include "support/format_test_avatar.h"
+#include "support/runtime_sample_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -35,34 +35,7 @@ int sh(const std::string& cmd, std::string* out) {
 
 std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
 
-struct TempDir {
-  fs::path path = fs::temp_directory_path() / ("haha_samples_" + std::to_string(::getpid()));
-  TempDir() {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-// A small avatar (.glb) and a 3-frame AMASS-style motion (the layout `haha motion` writes).
-void write_inputs(const fs::path& glb, const fs::path& motion) {
-  write_avatar_glb(test::make_test_avatar(300), glb.string(), PackOptions{});
-  const int T = 3;
-  std::vector<float> poses(size_t(T) * 165, 0.0f), trans(size_t(T) * 3, 0.0f);
-  for (int t = 0; t < T; ++t) {
-    poses[size_t(t) * 165 + 3 * 16 + 2] = -0.5f * float(t);  // left shoulder down
-    poses[size_t(t) * 165 + 1] = 0.3f * float(t);            // turn
-    trans[size_t(t) * 3] = 0.05f * float(t);
-  }
-  Npz z;
-  z.set("poses", NpyArray::from(poses, {T, 165}));
-  z.set("trans", NpyArray::from(trans, {T, 3}));
-  z.set("mocap_frame_rate", NpyArray::from(std::vector<double>{30.0}, {}));
-  z.write(motion.string());
-}
+using SampleTempDir = test::SampleTempDir;
 
 // Frames exist, are valid PNGs of the size asked and show the body (not only background).
 void expect_frames(const fs::path& dir, int count, int size) {
@@ -83,10 +56,10 @@ void expect_frames(const fs::path& dir, int count, int size) {
 }
 
 TEST(RuntimeSamples, InstallThenBuildAndRunTheSamplesAgainstThePrefix) {
-  TempDir tmp;
+  SampleTempDir tmp("haha_samples");
   const fs::path prefix = tmp.path / "prefix", src = HAHA_SOURCE_DIR;
   const fs::path glb = tmp.path / "avatar.glb", motion = tmp.path / "motion.npz";
-  write_inputs(glb, motion);
+  test::write_sample_inputs(glb, motion);
   std::string out;
 
   // Install: only the runtime package.
