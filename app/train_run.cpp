@@ -11,6 +11,7 @@
 #include "app/train_frames.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/interrupt.h"
 #include "core/parallel.h"
 #include "data/dataset.h"
 #include "format/avatar_npz.h"
@@ -114,6 +115,12 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   TrainProgress progress(cfg, trainer.step_in_stage());
   while (!trainer.done()) {
     if (opt.stop_after >= 0 && res.steps_run >= opt.stop_after) break;
+    if (interrupted()) {  // SIGTERM / SIGINT where the caller installed core/interrupt.h's handler
+      write_checkpoint(ck_path, trainer.save());
+      log("interrupted at stage " + std::to_string(trainer.stage()) + " step " + std::to_string(trainer.step_in_stage()) +
+          " (checkpoint written; continue with --resume)");
+      throw Error("interrupted");
+    }
     const StepReport r = trainer.step();
     ++res.steps_run;
     const bool stage_end = trainer.stage() != r.stage;

@@ -1,16 +1,13 @@
 // `haha pack`: a trained run directory (RUN/avatar.npz + RUN/config.json "model", see
-// app/run_dir.h) -> one .glb avatar (format/spec.md).
+// app/run_dir.h) -> one .glb avatar (format/spec.md); the driver is app/pack_run.h.
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 
-#include "app/run_dir.h"
+#include "app/pack_run.h"
 #include "command.h"
 #include "core/error.h"
-#include "format/avatar_npz.h"
 #include "format/avatar_pack.h"
-#include "io/body_model_io.h"
 
 HAHA_COMMAND(pack) {
   struct Opts {
@@ -56,15 +53,6 @@ HAHA_COMMAND(pack) {
                   "compact pose correctives: t=threshold (relative block norm kept per joint), r=rank per joint (1..9), "
                   "b=coefficient bits (0 = float32), e=energy kept per joint (sets the rank, at most r), e.g. t=0.02,r=4,e=0.995,b=6");
   sub->callback([o] {
-    namespace fs = std::filesystem;
-    haha::Avatar avatar;
-    if (fs::is_regular_file(o->run)) {
-      if (o->model.empty()) haha::fail(o->run, "an avatar.npz given directly needs --model (the body model it was trained on)");
-      avatar = haha::load_avatar_npz(o->run);
-      avatar.body = haha::load_body_model(o->model);
-    } else {
-      avatar = haha::load_run_avatar(haha::RunDir(o->run), o->model);
-    }
     haha::PackOptions opt;
     opt.lossless = o->lossless;
     opt.texture_codec = haha::texture_codec_from_name(o->texture);
@@ -92,7 +80,7 @@ HAHA_COMMAND(pack) {
     if (o->lossless && (!o->gaussian_bits.empty() || !o->mesh_bits.empty())) {
       haha::fail("--lossless", "stores float32 everywhere; it cannot be combined with --gaussian-bits/--mesh-bits");
     }
-    const haha::PackedSizes s = haha::write_avatar_glb(avatar, o->out, opt);
+    const haha::PackedSizes s = haha::pack_run(o->run, o->model, o->out, opt);
     std::printf("%s: %zu bytes: %d Gaussians %zu B, mesh (%d vertices, %d faces) %zu B, texture %zu B%s, pose correctives %zu B\n",
                 o->out.c_str(), s.total, s.num_gaussians, s.gaussians, s.num_vertices, s.num_faces, s.mesh, s.texture,
                 o->lossless ? " (+ exact copy)" : "", s.pose_correctives);

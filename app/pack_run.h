@@ -1,0 +1,17 @@
+// `haha pack`'s driver: a trained run directory (RUN/avatar.npz + config.json "model", see
+// app/run_dir.h), or an avatar.npz with its body model, to one .glb (format/spec.md).
+// `haha pack` parses its options into PackOptions and calls it; so does `haha batch run`.
+#pragma once
+
+#include <string>
+
+#include "format/avatar_pack.h"
+
+namespace haha {
+
+// `model` empty: config.json's "model" (a run directory); an avatar.npz given directly needs
+// it. Writes `out` atomically. Throws haha::Error naming the file or option.
+PackedSizes pack_run(const std::string& run_or_npz, const std::string& model, const std::string& out,
+                     const PackOptions& options);
+
+}  // namespace haha
