@@ -43,15 +43,22 @@
  *
  * Threads:
  *   - haha_avatar and haha_motion are immutable after loading: any number of threads may
- *     use one at the same time (getters, haha_posed_create, haha_motion_frame).
+ *     use one at the same time, in every call that takes it as const: haha_avatar_get_info,
+ *     haha_avatar_faces, haha_avatar_face_uvs, haha_avatar_texture, haha_posed_create,
+ *     haha_motion_load_for_avatar, haha_motion_info, haha_motion_frame; also while pose
+ *     states made from the avatar repose and render in other threads.
  *   - haha_posed is one pose state with its render scratch: one thread at a time
  *     (haha_repose, haha_posed_*, haha_render on the same haha_posed must not overlap).
  *     Distinct haha_posed objects, even of the same avatar, may be used concurrently:
  *     create one per thread (or per character) to repose/render in parallel.
+ *   - Calls on distinct objects do not interfere: loads (from the same file too) and every
+ *     other call may run in any number of threads at once; haha_write_png to distinct paths.
  *   - Free a haha_avatar only after every haha_posed made from it is freed and no call
- *     on it is running.
+ *     on it is running; free a haha_motion only when no call on it is running.
  *   - haha_last_error() is per thread.
- *   - repose and render run OpenMP-parallel internally; haha_set_num_threads limits that.
+ *   - repose and render run OpenMP-parallel internally; haha_set_num_threads limits that
+ *     for the calling thread only (a new thread starts with the default).
+ * tests/runtime/runtime_stress_test.cpp holds the library to this under ASan and TSan.
  */
 #ifndef HAHA_RUNTIME_H
 #define HAHA_RUNTIME_H
