@@ -1,4 +1,4 @@
-// The C API in a host process, as an engine uses it (issue 31), through
+// The C API in a host process, as an engine uses it, through
 // haha/haha_runtime.h only: 8 threads each with its own avatar reposing 1,000 times, 8
 // threads sharing one avatar (each with its own haha_posed, as the header allows) and a
 // shared motion, and 1,000 load/free cycles of the same file from a path and from memory
@@ -41,12 +41,14 @@
 #endif
 #if defined(__SANITIZE_ADDRESS__) || defined(HAHA_STRESS_TSAN)
 #define HAHA_STRESS_SANITIZER_HEAP 1
-#include <sanitizer/allocator_interface.h>
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
 #define HAHA_STRESS_SANITIZER_HEAP 1
-#include <sanitizer/allocator_interface.h>
 #endif
+#endif
+#ifdef HAHA_STRESS_SANITIZER_HEAP
+// The sanitizer runtime's (<sanitizer/allocator_interface.h>, which GCC does not ship).
+extern "C" size_t __sanitizer_get_current_allocated_bytes(void);
 #endif
 
 namespace fs = std::filesystem;
