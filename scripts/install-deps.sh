@@ -22,6 +22,13 @@ done
 if [ "${HAHA_NO_BROWSER:-0}" != 1 ]; then
   dpkg-query -W -f='${Status}' chromium 2>/dev/null | grep -q "install ok installed" || missing+=(chromium)
 fi
+# Slurm and munge for `haha batch`'s one-node cluster test (CTest batch_slurm, docs/scale-out.md):
+# only with HAHA_WITH_SLURM=1, so the default install does not grow; the test skips without them.
+if [ "${HAHA_WITH_SLURM:-0}" = 1 ]; then
+  for p in slurm-wlm munge; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+fi
 if [ ${#missing[@]} -gt 0 ]; then
   echo "haha: installing ${missing[*]}"
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
