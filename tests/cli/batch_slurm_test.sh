@@ -33,7 +33,10 @@ mkdir -p "$W/munge" "$W/msock" "$W/slurm/state" "$W/slurm/spool" "$W/data"
 chmod 700 "$W/munge"
 chmod 755 "$W" "$W/msock"
 PIDS=()
+OUR_CLUSTER=0  # 1 once SLURM_CONF points at this test's cluster (never scancel on another one)
 cleanup() {
+  # This cluster's jobs first (SLURM_CONF is ours), then the daemons by their pids.
+  [ "$OUR_CLUSTER" = 1 ] && scancel --quiet --user="$(id -un)" 2>/dev/null && sleep 1
   for pid in "${PIDS[@]}"; do kill "$pid" 2>/dev/null; done
   for pid in "${PIDS[@]}"; do
     for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
@@ -56,6 +59,7 @@ for _ in $(seq 50); do [ -S "$SOCK" ] && break; sleep 0.1; done
 HOST=$(hostname)
 PORT=$((20000 + RANDOM % 20000))
 export SLURM_CONF="$W/slurm/slurm.conf"
+OUR_CLUSTER=1
 cat >"$SLURM_CONF" <<CONF
 ClusterName=hahatest
 SlurmctldHost=$HOST
