@@ -8,7 +8,8 @@
 #   - the same subjects one after another (no Slurm) for the wall-time comparison;
 #   - a task cancelled mid-training (scancel) and submitted again resumes, and its avatar.glb
 #     is byte-identical to the uninterrupted array task's;
-#   - the array submitted again does no work (every output untouched).
+#   - the array submitted again does no work (every output untouched), also through the
+#     documented job script scripts/scale-out/haha-array-cpu.sbatch.
 # Usage: batch_slurm_test.sh HAHA WORKDIR. Exit 77 (skipped) without slurm-wlm / munge or root.
 set -u -o pipefail
 HAHA=$(readlink -f "$1")
@@ -199,6 +200,17 @@ check "again: every output untouched" test "$before" = "$after"
 check "again: the done ones say so" bash -c "grep -l 'already done' '$W'/haha-batch-${job}_0.out '$W'/haha-batch-${job}_1.out | wc -l | grep -qx 2"
 check "again: the broken one is not retried" grep -q "not retried" "$W/haha-batch-${job}_2.out"
 check "again: codes 0 0 65" test "$(tail -qn1 "$W/array/.codes/0" "$W/array/.codes/1" "$W/array/.codes/2" | tr '\n' ' ')" = "0 0 65 "
+# The documented job script (scripts/scale-out/haha-array-cpu.sbatch), its resources scaled
+# down to this node: the same array, no work, the bad input neither retried nor requeued.
+SCRIPT="$(dirname "$(readlink -f "$0")")/../../scripts/scale-out/haha-array-cpu.sbatch"
+job=$(sbatch --parsable --array=0-2 --cpus-per-task=1 --mem=0 --time=10 --output="$W/doc-%A_%a.out" \
+  "$SCRIPT" "$MANIFEST" "$W/array" | cut -d';' -f1)
+wait_job "$job"
+after2=$(cd "$W/array" && find . -path ./.codes -prune -o -type f ! -name '.lock' -printf '%p %T@ %s\n' | sort | md5sum)
+check "documented sbatch script: outputs untouched" test "$before" = "$after2"
+check "documented sbatch script: done ones skipped" bash -c "grep -l 'already done' '$W'/doc-${job}_0.out '$W'/doc-${job}_1.out | wc -l | grep -qx 2"
+check "documented sbatch script: bad input not retried, not requeued" \
+  bash -c "grep -q 'not retried' '$W/doc-${job}_2.out' && grep -q '\"attempts\": 1' '$W/array/s3-broken/failed.json'"
 "$HAHA" batch status "$MANIFEST" --out "$W/array" --json >"$W/status.json"
 check "status --json: 2 done, 1 failed" grep -q '"done": 2' "$W/status.json"
 
