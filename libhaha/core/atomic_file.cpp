@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -13,7 +14,10 @@
 namespace haha {
 
 void write_atomically(const std::string& path, const std::function<void(const std::string&)>& write) {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  // The process id and a per-process counter: two threads writing the same path never
+  // share a working file (the last rename wins, and each renamed file is whole).
+  static std::atomic<unsigned> counter{0};
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
   try {
     write(tmp);
   } catch (...) {

@@ -1,4 +1,4 @@
-// Writes go to "<path>.tmp-<pid>" and are renamed over <path> only once complete, so a
+// Writes go to "<path>.tmp-<pid>-<n>" and are renamed over <path> only once complete, so a
 // failed or interrupted command never leaves a half-written output file.
 #pragma once
 

@@ -21,7 +21,7 @@
  *   free(verts);  haha_posed_free(posed);  haha_avatar_free(avatar);
  * (samples/c/haha_sample_c.c is a complete program.)
  *
- * Conventions (the project's, README "Conventions"):
+ * Conventions (the project's, docs/architecture.md "Conventions"):
  *   - SMPL-X rest frame, metres, Y up, body facing +Z. A pose is 55 joints x axis-angle
  *     (165 floats: global orient, 21 body, jaw, left eye, right eye, 15 left-hand, 15
  *     right-hand joints) plus a 3-float translation.
