@@ -140,16 +140,6 @@ class Heartbeat {
   std::thread thread_;
 };
 
-bool read_json_file(const std::string& path, ojson& j) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return false;
-  try {
-    j = ojson::parse(read_text_file(path));
-    return j.is_object();
-  } catch (const std::exception&) {
-    return false;
-  }
-}
 
 bool opt_true(const std::vector<std::pair<std::string, std::string>>& kv, const std::string& key) {
   for (const auto& [k, v] : kv)
@@ -221,7 +211,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
   }
   // ---- done, or not to be retried --------------------------------------------------------
   ojson prev;
-  if (read_json_file(p.done(), prev)) {
+  if (read_json_object(p.done(), prev)) {
     res.skipped = true;
     res.message = s.id + ": already done (" + p.done() + ")";
     if (prev.value("fingerprint", "") != s.fingerprint())
@@ -229,7 +219,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
     return res;
   }
   int attempts = 0;
-  const bool had_failed = read_json_file(p.failed(), prev);
+  const bool had_failed = read_json_object(p.failed(), prev);
   if (had_failed) {
     attempts = prev.value("attempts", 0);
     const bool same = prev.value("fingerprint", "") == s.fingerprint();
@@ -242,12 +232,12 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
     }
   }
   ojson running_prev;
-  if (read_json_file(p.running(), running_prev)) attempts = std::max(attempts, running_prev.value("attempt", 0));
+  if (read_json_object(p.running(), running_prev)) attempts = std::max(attempts, running_prev.value("attempt", 0));
   // A folder started for another manifest line is not mixed with this one, unless that
   // attempt ended as bad input (the line was fixed).
   const std::string subject_json = p.file("subject.json");
   ojson started;
-  if (read_json_file(subject_json, started) && started.value("fingerprint", "") != s.fingerprint()) {
+  if (read_json_object(subject_json, started) && started.value("fingerprint", "") != s.fingerprint()) {
     if (had_failed && prev.value("kind", "") == "bad_input") {
       std::error_code ec;
       fs::remove_all(p.data(), ec);
@@ -420,7 +410,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
         log("eval: done before (" + run.report_json() + ")");
       }
       ojson report;
-      if (read_json_file(run.report_json(), report)) done["report"] = fs::absolute(run.report_json()).lexically_normal().string();
+      if (read_json_object(run.report_json(), report)) done["report"] = fs::absolute(run.report_json()).lexically_normal().string();
       // ---- pack ----
       if (!fs::exists(p.avatar())) {
         enter("pack");
@@ -446,7 +436,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
       const UnpackedAvatar back = read_avatar_file(p.avatar());
       done["gaussians"] = back.avatar.gaussians.size();
       done["avatar_bytes"] = fs::file_size(p.avatar());
-      if (read_json_file(run.report_json(), report) && report.contains("variants") && report["variants"].is_array() &&
+      if (read_json_object(run.report_json(), report) && report.contains("variants") && report["variants"].is_array() &&
           !report["variants"].empty()) {
         const ojson& v = report["variants"].back();
         if (v.contains("psnr")) done["psnr"] = v["psnr"];

@@ -32,6 +32,17 @@ const char* subject_state_name(SubjectState s) {
   return "?";
 }
 
+bool read_json_object(const std::string& path, ojson& j) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  try {
+    j = ojson::parse(read_text_file(path));
+    return j.is_object();
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 std::string host_name() {
   char buf[256] = {0};
   if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
@@ -75,16 +86,6 @@ bool file_locked_by_other(const std::string& path) {
 
 namespace {
 
-bool read_json(const std::string& path, ojson& j) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return false;
-  try {
-    j = ojson::parse(read_text_file(path));
-    return j.is_object();
-  } catch (const std::exception&) {
-    return false;
-  }
-}
 
 std::string str(const ojson& j, const char* key) {
   return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string();
@@ -104,7 +105,7 @@ SubjectStatus read_subject_status(const BatchSubject& s, const std::string& root
   }
   const SubjectPaths p(root, s.id);
   ojson j;
-  if (read_json(p.done(), j)) {
+  if (read_json_object(p.done(), j)) {
     st.state = SubjectState::done;
     st.attempts = j.value("attempts", 0);
     st.seconds = j.value("wall_seconds", 0.0);
@@ -120,7 +121,7 @@ SubjectStatus read_subject_status(const BatchSubject& s, const std::string& root
     if (st.stale) st.reason += " (the manifest line changed since; remove the folder to redo)";
     return st;
   }
-  if (read_json(p.running(), j)) {
+  if (read_json_object(p.running(), j)) {
     const bool held = file_locked_by_other(p.lock());
     const double age = unix_seconds() - j.value("heartbeat", 0.0);
     const bool same_host = str(j, "host") == host_name();
@@ -142,7 +143,7 @@ SubjectStatus read_subject_status(const BatchSubject& s, const std::string& root
                 ": the task is gone (last heartbeat " + buf + " s ago); run again to resume";
     return st;
   }
-  if (read_json(p.failed(), j)) {
+  if (read_json_object(p.failed(), j)) {
     st.state = SubjectState::failed;
     st.kind = str(j, "kind");
     st.reason = str(j, "stage") + ": " + str(j, "error");

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,10 @@ class FileLock {
 };
 // True when some process holds the lock on `path` (a momentary shared-lock probe).
 bool file_locked_by_other(const std::string& path);
+
+// The JSON object in `path`; false (j untouched or partial) when the file is missing, unreadable
+// or not an object: a state file half-written by a killed task counts as absent.
+bool read_json_object(const std::string& path, nlohmann::ordered_json& j);
 
 std::string host_name();
 std::string utc_now();        // 2026-11-25T19:40:01Z

@@ -29,6 +29,7 @@
 #include "io/motion.h"
 #include "io/npy.h"
 #include "support/format_test_avatar.h"
+#include "support/runtime_sample_inputs.h"
 
 namespace fs = std::filesystem;
 
@@ -101,25 +102,8 @@ AvatarRuntime cpp_runtime(const std::vector<uint8_t>& bytes) {
   return AvatarRuntime(unpack_avatar(bytes.data(), bytes.size(), "mem.glb").avatar);
 }
 
-std::array<float, 165> random_pose(uint32_t seed, float amplitude) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> n(0.0f, amplitude);
-  std::array<float, 165> p{};
-  for (float& x : p) x = n(rng);
-  return p;
-}
-
-// Front camera at z = 3 looking at the origin (OpenCV: y down).
-haha_camera front_camera(int w, int h) {
-  haha_camera c{};
-  c.width = w, c.height = h;
-  c.fx = c.fy = 1.25f * float(h);
-  c.cx = 0.5f * float(w), c.cy = 0.5f * float(h);
-  const float R[9] = {1, 0, 0, 0, -1, 0, 0, 0, -1};
-  std::memcpy(c.rotation, R, sizeof R);
-  c.translation[2] = 3;
-  return c;
-}
+using test::front_camera;
+using test::random_pose;
 Camera to_cpp(const haha_camera& c) {
   Camera k;
   k.width = c.width, k.height = c.height, k.fx = c.fx, k.fy = c.fy, k.cx = c.cx, k.cy = c.cy;

@@ -31,6 +31,7 @@
 #include "haha/haha_runtime.h"
 #include "io/npy.h"
 #include "support/format_test_avatar.h"
+#include "support/runtime_sample_inputs.h"
 
 #if defined(__SANITIZE_THREAD__)
 #define HAHA_STRESS_TSAN 1
@@ -112,25 +113,8 @@ void write_bytes(const fs::path& p, const std::vector<uint8_t>& b) {
   f.write(reinterpret_cast<const char*>(b.data()), std::streamsize(b.size()));
 }
 
-std::array<float, 165> random_pose(uint32_t seed, float amplitude) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> n(0.0f, amplitude);
-  std::array<float, 165> p{};
-  for (float& x : p) x = n(rng);
-  return p;
-}
-
-// Front camera at z = 3 looking at the origin (OpenCV: y down).
-haha_camera front_camera(int w, int h) {
-  haha_camera c{};
-  c.width = w, c.height = h;
-  c.fx = c.fy = 1.25f * float(h);
-  c.cx = 0.5f * float(w), c.cy = 0.5f * float(h);
-  const float R[9] = {1, 0, 0, 0, -1, 0, 0, 0, -1};
-  std::memcpy(c.rotation, R, sizeof R);
-  c.translation[2] = 3;
-  return c;
-}
+using test::front_camera;
+using test::random_pose;
 
 // Avatars as an engine ships them: the default lossy pack (Draco mesh and Gaussians, JPEG
 // texture, compact pose correctives). The reposed one has enough Gaussians that posing them

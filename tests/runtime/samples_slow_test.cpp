@@ -22,18 +22,8 @@ namespace fs = std::filesystem;
 namespace haha {
 namespace {
 
-// Runs a shell command; returns its exit status, stdout+stderr in *out.
-int sh(const std::string& cmd, std::string* out) {
-  out->clear();
-  FILE* p = popen(("(" + cmd + ") 2>&1").c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out->append(buf, n);
-  return pclose(p);
-}
-
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+using test::q;
+using test::sh;
 
 using SampleTempDir = test::SampleTempDir;
 

@@ -1,15 +1,20 @@
-// What the runtime's sample tests (samples/c, cpp, csharp) run on: a small packed avatar and
-// a 3-frame AMASS-style motion (the layout `haha motion` writes), in a temporary folder.
+// What the runtime's tests run on: a small packed avatar and a 3-frame AMASS-style motion
+// (the layout `haha motion` writes) in a temporary folder, random poses and a front camera.
 #pragma once
 
 #include <unistd.h>
 
+#include <array>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "format/avatar_pack.h"
+#include "haha/haha_runtime.h"
 #include "io/npy.h"
 #include "support/format_test_avatar.h"
 
@@ -43,6 +48,40 @@ inline void write_sample_inputs(const std::filesystem::path& glb, const std::fil
   z.set("trans", NpyArray::from(trans, {T, 3}));
   z.set("mocap_frame_rate", NpyArray::from(std::vector<double>{30.0}, {}));
   z.write(motion.string());
+}
+
+// Runs a shell command; returns its exit status, stdout+stderr in *out.
+inline int sh(const std::string& cmd, std::string* out) {
+  out->clear();
+  FILE* p = popen(("(" + cmd + ") 2>&1").c_str(), "r");
+  if (!p) return -1;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out->append(buf, n);
+  return pclose(p);
+}
+
+// A path quoted for the shell.
+inline std::string q(const std::filesystem::path& p) { return "'" + p.string() + "'"; }
+
+inline std::array<float, 165> random_pose(uint32_t seed, float amplitude) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> n(0.0f, amplitude);
+  std::array<float, 165> p{};
+  for (float& x : p) x = n(rng);
+  return p;
+}
+
+// Front camera at z = 3 looking at the origin (OpenCV: y down).
+inline haha_camera front_camera(int w, int h) {
+  haha_camera c{};
+  c.width = w, c.height = h;
+  c.fx = c.fy = 1.25f * float(h);
+  c.cx = 0.5f * float(w), c.cy = 0.5f * float(h);
+  const float R[9] = {1, 0, 0, 0, -1, 0, 0, 0, -1};
+  std::memcpy(c.rotation, R, sizeof R);
+  c.translation[2] = 3;
+  return c;
 }
 
 }  // namespace haha::test
