@@ -264,43 +264,28 @@ RestBody rest_body(const Avatar& a) {
   return r;
 }
 
-// Finds each body face in a decoded edgebreaker mesh through _BODY_VERTEX: its index there
-// and the corner rotation. False if a body vertex or face is missing or two body faces
-// share their vertices (then the caller keeps the face order instead).
-bool match_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b, std::vector<int32_t>& file_face,
-                 std::vector<uint8_t>& file_corner) {
+// Whether a decoded (edgebreaker) mesh gives the reader back the body: every body vertex
+// through _BODY_VERTEX, and the body's faces as the same canonical face list (the order the
+// Gaussians name). False: the caller keeps the face order instead.
+bool keeps_body_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b) {
   const int V = b.num_verts, F = b.num_faces;
   if (dec.num_faces() != F) return false;
-  const std::vector<int64_t> bv = dec.ints(body_vertex_id, 1, "BODY_VERTEX");
+  const std::vector<int64_t> bv = dec.ints(body_vertex_id, 1, "_BODY_VERTEX");
   std::vector<char> seen(size_t(V), 0);
   for (int64_t v : bv) seen[size_t(v)] = 1;
   if (std::count(seen.begin(), seen.end(), 0) != 0) return false;
-  // Key: the corners rotated to start at the smallest vertex (orientation kept).
-  auto key = [](int32_t x, int32_t y, int32_t z, int& start) {
-    start = (x <= y && x <= z) ? 0 : (y <= z ? 1 : 2);
-    const int32_t c[3] = {x, y, z};
-    return std::array<int32_t, 3>{c[start], c[(start + 1) % 3], c[(start + 2) % 3]};
+  std::vector<int32_t> file_faces = dec.faces();
+  for (int32_t& c : file_faces) c = int32_t(bv[size_t(c)]);
+  auto canonical_list = [F](const std::vector<int32_t>& faces) {
+    const CanonicalFaces c = canonical_faces(faces.data(), F);
+    std::vector<std::array<int32_t, 3>> out;
+    for (int32_t f : c.order) {
+      const size_t r = c.rotation[size_t(f)], o = size_t(f) * 3;
+      out.push_back({faces[o + r], faces[o + (r + 1) % 3], faces[o + (r + 2) % 3]});
+    }
+    return out;
   };
-  std::map<std::array<int32_t, 3>, std::pair<int32_t, int>> body_faces;
-  for (int f = 0; f < F; ++f) {
-    int start;
-    const auto k = key(b.faces[size_t(f) * 3], b.faces[size_t(f) * 3 + 1], b.faces[size_t(f) * 3 + 2], start);
-    if (!body_faces.emplace(k, std::make_pair(int32_t(f), start)).second) return false;
-  }
-  file_face.assign(size_t(F), -1);
-  file_corner.assign(size_t(F), 0);
-  const std::vector<int32_t> df = dec.faces();
-  for (int f = 0; f < F; ++f) {
-    int start;
-    const auto k = key(int32_t(bv[size_t(df[size_t(f) * 3])]), int32_t(bv[size_t(df[size_t(f) * 3 + 1])]),
-                       int32_t(bv[size_t(df[size_t(f) * 3 + 2])]), start);
-    const auto it = body_faces.find(k);
-    if (it == body_faces.end() || file_face[size_t(it->second.first)] >= 0) return false;
-    file_face[size_t(it->second.first)] = f;
-    // Body corner `s` (its smallest vertex) is file corner `start`: corner 0 is file corner start - s.
-    file_corner[size_t(it->second.first)] = uint8_t((start - it->second.second + 3) % 3);
-  }
-  return true;
+  return canonical_list(file_faces) == canonical_list(b.faces);
 }
 
 // The body mesh's per-glTF-vertex arrays (split at UV seams), what both storages write.
@@ -395,10 +380,7 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
   // would fail here, not later).
   std::unique_ptr<dracoio::Decoded> dec =
       std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
-  std::vector<int32_t> file_face;  // unused: the Gaussians bind to canonical faces
-  std::vector<uint8_t> file_corner;
-  if (method == dracoio::Method::edgebreaker &&
-      !match_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b, file_face, file_corner)) {
+  if (method == dracoio::Method::edgebreaker && !keeps_body_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b)) {
     method = dracoio::Method::sequential;  // a body edgebreaker cannot map back: keep the face order
     mesh_enc = dracoio::encode(Vg, mattrs, r.split.faces.data(), F, method);
     dec = std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
