@@ -10,6 +10,7 @@
 #include "train/adam.h"
 #include "train/image_loss.h"
 #include "train/losses.h"
+#include "train/outline_band.h"
 #include "train/pose_groups.h"
 
 namespace haha {
@@ -126,6 +127,8 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     fe.render_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     fe.psnr = psnr(buf.image.data(), gt.data(), H, W);
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
+    const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);
+    fe.psnr_outline = psnr(buf.image.data(), gt.data(), H, W, band.data());  // NaN without an outline
     if (opt.lpips) fe.lpips = opt.lpips->distance(buf.image.data(), gt.data(), H, W);
     if (int(fi) < opt.keep_images) {
       fe.image = buf.image;
@@ -141,14 +144,17 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   const double n = double(out.frames.size());
   out.psnr = out.ssim = out.render_ms = 0;
-  double lp = 0;
+  double lp = 0, outline = 0;
+  int with_outline = 0;
   for (const FrameEval& fe : out.frames) {
+    if (!std::isnan(fe.psnr_outline)) outline += fe.psnr_outline, ++with_outline;  // NaN: no outline
     out.psnr += fe.psnr / n;
     out.ssim += fe.ssim / n;
     out.render_ms += fe.render_ms / n;
     lp += fe.lpips / n;
   }
   out.lpips = opt.lpips ? lp : -1;
+  out.psnr_outline = with_outline > 0 ? outline / with_outline : std::nan("");
   return out;
 }
 

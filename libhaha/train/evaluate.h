@@ -1,6 +1,6 @@
 // Evaluation of trained avatars on held-out frames (docs/method.md section 4): test-time pose
 // optimisation with the avatar frozen, then PSNR / SSIM (/ LPIPS-Alex) over full frames on
-// a fixed background, Gaussian counts, storage and render time, for the paper's stage
+// a fixed background, PSNR in a band around the person's outline (train/outline_band.h), Gaussian counts, storage and render time, for the paper's stage
 // table: textured mesh only / full Gaussians / naive merge / HAHA filtered. No file I/O
 // (the data layer writes the report and the contact sheet).
 #pragma once
@@ -43,8 +43,12 @@ struct EvalOptions {
   bool antialias = false;
 };
 
+// Pixels within this distance of the ground-truth mask's outline make the outline PSNR.
+constexpr int kOutlineBandPx = 3;
+
 struct FrameEval {
   double psnr = 0, ssim = 0, lpips = -1;  // lpips < 0: unavailable
+  double psnr_outline = 0;                // PSNR within kOutlineBandPx of the person's outline
   double render_ms = 0;                   // LBS + render of the final pose
   double tto_loss_start = 0, tto_loss_end = 0;
   // Kept for the first keep_images frames: (H, W, 3) images.
@@ -57,6 +61,7 @@ struct VariantEval {
   int num_gaussians = 0;
   int64_t storage_bytes = 0;
   double psnr = 0, ssim = 0, lpips = -1, render_ms = 0;  // means over frames
+  double psnr_outline = 0;  // mean over the frames that have an outline (NaN: none has)
   std::vector<FrameEval> frames;
 };
 

@@ -29,6 +29,10 @@ TEST(Evaluate, TheRenderingAvatarScoresPerfectlyAndLayersMatter) {
   EXPECT_NEAR(both.ssim, 1.0, 1e-6);
   EXPECT_LT(mesh.psnr, 40.0);  // the "hair" Gaussians are missing
   EXPECT_LT(mesh.ssim, both.ssim);
+  // The missing hair sits at the outline: the band's PSNR is below the whole frame's.
+  EXPECT_GT(both.psnr_outline, 60.0);
+  EXPECT_TRUE(std::isfinite(mesh.psnr_outline));
+  EXPECT_LT(mesh.psnr_outline, mesh.psnr);
   EXPECT_EQ(both.num_gaussians, a.gaussians.size());
   EXPECT_EQ(mesh.num_gaussians, 0);
   EXPECT_LT(both.lpips, 0.0);  // no LPIPS network: unavailable
