@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -195,7 +196,7 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
   for (const auto& [k, v] : root.items()) {
     (void)v;
     static const char* known[] = {"format", "version", "width", "height", "fps",        "gender",
-                                  "source", "premultiplied", "camera", "smplx", "smplx_true", "frames"};
+                                  "source", "source_crop", "premultiplied", "camera", "smplx", "smplx_true", "frames"};
     bool ok = false;
     for (const char* kk : known) ok = ok || k == kk;
     if (!ok) fail(where(k), "unknown key");
@@ -237,6 +238,18 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
   if (root.contains("premultiplied")) {
     if (!root["premultiplied"].is_boolean()) fail(where("premultiplied"), "expected true or false");
     ds.premultiplied = root["premultiplied"].get<bool>() ? 1 : 0;
+  }
+  if (root.contains("source_crop")) {
+    const ojson& v = root["source_crop"];
+    bool ok = v.is_array() && v.size() == 4;
+    for (size_t k = 0; ok && k < 4; ++k)
+      ok = v[k].is_number_integer() && v[k].get<int64_t>() >= 0 && v[k].get<int64_t>() <= 32768 * 4;
+    if (!ok) fail(where("source_crop"), "expected [x0, y0, w, h]: four non-negative integers");
+    for (size_t k = 0; k < 4; ++k) ds.source_crop[k] = int(v[k].get<int64_t>());
+    if (ds.source_crop[2] != ds.width || ds.source_crop[3] != ds.height)
+      fail(where("source_crop"), "box is " + std::to_string(ds.source_crop[2]) + "x" +
+                                     std::to_string(ds.source_crop[3]) + ", the dataset " + std::to_string(ds.width) +
+                                     "x" + std::to_string(ds.height));
   }
   bool have_static = false;
   Camera static_cam;
@@ -329,6 +342,7 @@ struct DatasetWriter::State {
   std::vector<SmplxParams> params, truth;
   int with_truth = 0;
   int premultiplied = -1;
+  std::array<int, 4> source_crop{};  // w = 0: none
   bool finished = false;
 };
 
@@ -361,6 +375,14 @@ DatasetWriter::DatasetWriter(std::string dir, int width, int height, double fps,
 void DatasetWriter::set_premultiplied(int flag) {
   if (flag < -1 || flag > 1) fail(s_->dir.string(), "premultiplied flag must be -1, 0 or 1");
   s_->premultiplied = flag;
+}
+
+void DatasetWriter::set_source_crop(int x0, int y0, int w, int h) {
+  if (x0 < 0 || y0 < 0 || w != s_->width || h != s_->height)
+    fail(s_->dir.string(), "source crop [" + std::to_string(x0) + ", " + std::to_string(y0) + ", " + std::to_string(w) +
+                               ", " + std::to_string(h) + "] must start at x0, y0 >= 0 and be the dataset's " +
+                               std::to_string(s_->width) + "x" + std::to_string(s_->height));
+  s_->source_crop = {x0, y0, w, h};
 }
 
 DatasetWriter::~DatasetWriter() {
@@ -442,6 +464,7 @@ void DatasetWriter::finish() {
   root["fps"] = s.fps;
   root["gender"] = s.gender;
   root["source"] = s.source;
+  if (s.source_crop[2] > 0) root["source_crop"] = s.source_crop;
   if (s.premultiplied >= 0) root["premultiplied"] = s.premultiplied == 1;
   if (is_static) root["camera"] = camera_object(s.cameras.front());
   root["smplx"] = "smplx/params.npz";
@@ -479,6 +502,8 @@ void DatasetWriter::finish() {
 void write_dataset(const Dataset& ds, const std::string& dir) {
   DatasetWriter w(dir, ds.width, ds.height, ds.fps, ds.gender, ds.source);
   w.set_premultiplied(ds.premultiplied);
+  if (ds.source_crop[2] > 0)
+    w.set_source_crop(ds.source_crop[0], ds.source_crop[1], ds.source_crop[2], ds.source_crop[3]);
   if (!ds.params_true.empty() && ds.params_true.size() != ds.frames.size())
     fail(dir, std::to_string(ds.params_true.size()) + " true parameter sets for " + std::to_string(ds.frames.size()) +
                   " frames");

@@ -16,6 +16,9 @@
 //   {"format": "haha-dataset", "version": 1,
 //    "width": W, "height": H, "fps": 30, "gender": "neutral" | "male" | "female",
 //    "source": "free text: what this was made or converted from",
+//    "source_crop": [x0, y0, w, h],   (optional) the frames are this box of the source's frames
+//                     (source pixels, w x h = width x height, not scaled): source pixel
+//                     (u, v) is pixel (u - x0, v - y0) here, and cx, cy are shifted alike
 //    "premultiplied": true | false,   (optional) images composited on black with the soft
 //                     mask (rgb = mask x colour); absent: not known (older files)
 //    "camera": {"K": [[fx,0,cx],[0,fy,cy],[0,0,1]], "world_to_camera": 4x4, "near": n, "far": f},
@@ -35,6 +38,7 @@
 // directory renamed into place at the end, so a failed write leaves nothing behind.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -69,6 +73,8 @@ struct Dataset {
   std::string source;
   // "premultiplied" of dataset.json: -1 not given, 0 false, 1 true.
   int premultiplied = -1;
+  // "source_crop" of dataset.json: x0, y0, w, h in the source's pixels; w = 0: not given.
+  std::array<int, 4> source_crop{};
   std::vector<DatasetFrame> frames;
   std::vector<SmplxParams> params_true;  // empty, or one per frame
 
@@ -109,6 +115,8 @@ class DatasetWriter {
   void add(const DatasetFrame& frame, const Image& rgb, const Image& mask, const SmplxParams* truth = nullptr);
   // "premultiplied" of dataset.json (Dataset::premultiplied); -1 (the default) writes nothing.
   void set_premultiplied(int flag);
+  // "source_crop" of dataset.json (Dataset::source_crop): x0, y0 >= 0, w x h the dataset's size.
+  void set_source_crop(int x0, int y0, int w, int h);
   // Writes the npz files and dataset.json and moves the directory into place.
   void finish();
   int num_frames() const;
