@@ -62,6 +62,52 @@ void summarize_fit(FitVideoSummary& s) {
   s.mean_orient_error_deg = nrot ? rot / nrot : NAN;
 }
 
+std::string crop_report_line(const FitVideoSummary& s) {
+  if (s.crop_w <= 0) return "";
+  char b[512];
+  const std::string frame = std::to_string(s.width) + "x" + std::to_string(s.height);
+  if (s.cropped)
+    std::snprintf(b, sizeof b, "crop %dx%d at (%d, %d) of the %s frames (dataset.json source_crop)", s.crop_w, s.crop_h,
+                  s.crop_x0, s.crop_y0, frame.c_str());
+  else
+    std::snprintf(b, sizeof b, "no crop (--no-crop): the whole %s frames", frame.c_str());
+  std::string out = b;
+  if (s.person_height_px > 0 && s.train_resolution > 0) {
+    const double scale = double(s.train_resolution) / std::max(s.crop_w, s.crop_h);
+    const double uncropped = double(s.train_resolution) / std::max(s.width, s.height);
+    std::snprintf(b, sizeof b, ": the person is %d px tall, %.0f px at the tiny preset's %d px training size",
+                  s.person_height_px, s.person_height_px * scale, s.train_resolution);
+    out += b;
+    if (s.cropped) {
+      std::snprintf(b, sizeof b, " (%.0f px uncropped)", s.person_height_px * uncropped);
+      out += b;
+    }
+  }
+  return out;
+}
+
+std::string matting_report_line(const FitVideoSummary& s) {
+  if (s.matting.empty()) return "";
+  if (s.matting == "off") return "matting off (--matting off): the keypoint tool's masks";
+  char b[512];
+  std::snprintf(b, sizeof b, "background plate from %d of %d frames, holes %.1f %% of the frame; ", s.plate_frames,
+                s.plate_candidates, 100.0 * s.plate_hole_share);
+  std::string out = b;
+  if (!std::isfinite(s.background_residual))
+    return out + "no background seen to judge the camera by: matting off, the keypoint tool's masks";
+  std::snprintf(b, sizeof b, "camera %s (background residual %.4f %s %.4f): ", s.matting_used ? "static" : "moving",
+                s.background_residual, s.matting_used ? "<=" : ">", s.static_threshold);
+  out += b;
+  if (!s.matting_used) return out + "matting off, the keypoint tool's masks";
+  out += "matting on, the dataset is premultiplied (alpha x colour against the plate)";
+  if (std::isfinite(s.matted_band_share)) {
+    std::snprintf(b, sizeof b, "; the plate is known at %.1f %% of the mask's edge band (the tool's mask elsewhere)",
+                  100.0 * s.matted_band_share);
+    out += b;
+  }
+  return out;
+}
+
 std::string fit_report_json(const FitVideoSummary& s) {
   ojson j;
   j["format"] = "haha-fit-report";
@@ -79,6 +125,30 @@ std::string fit_report_json(const FitVideoSummary& s) {
   j["test"] = s.test;
   j["camera"] = {{"fx", s.camera.fx}, {"fy", s.camera.fy}, {"cx", s.camera.cx}, {"cy", s.camera.cy}};
   j["focal_source"] = s.focal_source;
+  if (s.crop_w > 0) {
+    j["crop"] = s.cropped ? ojson({{"x0", s.crop_x0}, {"y0", s.crop_y0}, {"width", s.crop_w}, {"height", s.crop_h}})
+                          : ojson(nullptr);
+    j["person_height_px"] = s.person_height_px;
+    if (s.train_resolution > 0 && s.person_height_px > 0) {
+      j["train_resolution"] = s.train_resolution;
+      j["person_height_train_px"] = double(s.person_height_px) * s.train_resolution / std::max(s.crop_w, s.crop_h);
+    }
+  }
+  if (!s.matting.empty()) {
+    ojson m;
+    m["mode"] = s.matting;
+    m["used"] = s.matting_used;
+    if (s.matting != "off") {
+      m["plate_frames"] = s.plate_frames;
+      m["plate_candidates"] = s.plate_candidates;
+      m["hole_share"] = number_or_null(s.plate_hole_share);
+      m["background_residual"] = number_or_null(s.background_residual);
+      m["static_threshold"] = number_or_null(s.static_threshold);
+      m["camera_static"] = s.matting_used;
+      if (s.matting_used) m["matted_band_share"] = number_or_null(s.matted_band_share);
+    }
+    j["matting"] = std::move(m);
+  }
   j["mean_reprojection_px"] = number_or_null(s.mean_reprojection_px);
   j["mean_silhouette_iou"] = number_or_null(s.mean_silhouette_iou);
   if (!s.truth.empty()) {
@@ -125,6 +195,8 @@ std::string fit_report_table(const FitVideoSummary& s) {
   }
   if (!s.focal_source.empty())
     out.insert(out.size() - 1, "focal length " + fixed(s.camera.fx, 1) + " px: " + s.focal_source + "\n");
+  for (const std::string& l : {crop_report_line(s), matting_report_line(s)})
+    if (!l.empty()) out.insert(out.size() - 1, l + "\n");
   std::snprintf(line, sizeof line, "%-*s  %6s  %-7s  %7s  %6s  %6s%s  %s\n", int(wname), "frame", "source", "kept",
                 "dataset", "reproj", "IoU", truth ? "  PA mm  rot deg" : "", "reason");
   out += line;

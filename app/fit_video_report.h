@@ -38,6 +38,22 @@ struct FitVideoSummary {
   Camera camera;
   std::string focal_source;   // where the focal length came from (app/fit_video_focal.h)
   std::vector<FitVideoFrameRow> frames;  // one per frame given to the fit
+  // The dataset's frames: this box of the input frames (the whole frame with --no-crop;
+  // app/fit_video_crop.h) and the person's height in it (the box of the person over the
+  // kept frames; 0: not measured), also at the tiny preset's training size (the dataset's
+  // longer side scaled to train_resolution px).
+  bool cropped = false;        // false: --no-crop
+  int crop_x0 = 0, crop_y0 = 0, crop_w = 0, crop_h = 0;
+  int person_height_px = 0;
+  int train_resolution = 0;
+  // Matting against the background plate (data/background_matting.h): the option, the
+  // plate (frames used of those given, share of holes), the background residual against
+  // the camera's threshold, and whether the dataset is matted (premultiplied).
+  std::string matting;            // auto | off ("" = not reported)
+  bool matting_used = false;
+  int plate_frames = 0, plate_candidates = 0;
+  double plate_hole_share = NAN, background_residual = NAN, static_threshold = NAN;
+  double matted_band_share = NAN;  // share of the kept frames' edge band where the plate was known (matted)
   double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
   std::string truth;               // --truth DIR ("" = none): the joint error is reported
   double mean_joint_error_mm = NAN;  // over kept frames with a value (NaN: none)
@@ -46,6 +62,10 @@ struct FitVideoSummary {
 
 // Means over kept frames of the finite values; fills summary.mean_*.
 void summarize_fit(FitVideoSummary& s);
+
+// The report's lines on the crop and on the matting ("" when not reported).
+std::string crop_report_line(const FitVideoSummary& s);
+std::string matting_report_line(const FitVideoSummary& s);
 
 std::string fit_report_json(const FitVideoSummary& s);
 std::string fit_report_table(const FitVideoSummary& s);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "app/fit_video_crop.h"
 #include "app/fit_video_focal.h"
 #include "app/fit_video_input.h"
 #include "app/fit_video_truth.h"
@@ -16,12 +17,14 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
+#include "data/background_matting.h"
 #include "data/contact_sheet.h"
 #include "data/dataset.h"
 #include "data/stage_dir.h"
 #include "io/body_model_io.h"
 #include "io/image.h"
 #include "io/keypoints_json.h"
+#include "train/config.h"
 
 namespace haha {
 
@@ -50,6 +53,37 @@ void check_fit_result(const VideoFitResult& r, int n, int width, int height) {
                     ", the frames are " + std::to_string(width) + "x" + std::to_string(height));
 }
 
+// A frame as RGB (the work frames are RGB PNGs; a grey or RGBA one is taken as it comes).
+Image frame_rgb(const std::string& path) {
+  Image img = read_image(path);
+  if (img.channels == 3) return img;
+  Image out(img.width, img.height, 3);
+  for (size_t p = 0; p < size_t(img.width) * img.height; ++p)
+    for (int c = 0; c < 3; ++c) out.data[p * 3 + c] = img.data[p * size_t(img.channels) + (img.channels >= 3 ? c : 0)];
+  return out;
+}
+
+// The plate keeps 8-bit copies of its frames (4 bytes a pixel): at most this many bytes,
+// the frames spread evenly over the video beyond it (about 100 frames of 1280x720).
+constexpr double kPlateBytes = 384e6;
+
+// The background plate from the frames given to the fit (kept or not: a frame the person
+// left is the best one), spread evenly when there are more than the budget holds.
+BackgroundPlate make_plate(const InputFrames& in, const std::vector<VideoFitInputFrame>& frames,
+                           const MattingOptions& mo) {
+  const int n = int(in.paths.size());
+  const int most = std::max(8, int(kPlateBytes / (4.0 * in.width * in.height)));
+  const int use = std::min(n, most);
+  BackgroundPlateBuilder b(in.width, in.height, mo);
+  b.reserve(use);
+  for (int k = 0; k < use; ++k) {
+    check_interrupted();
+    const int i = int((int64_t(k) * n) / use);
+    b.add(frame_rgb(in.paths[size_t(i)]), frames[size_t(i)].mask);
+  }
+  return b.build();
+}
+
 }  // namespace
 
 void validate_fit_video_options(const FitVideoOptions& o) {
@@ -68,6 +102,7 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (o.mask != "pose" && o.mask != "selfie") fail("--mask", "'" + o.mask + "' is neither pose nor selfie");
   if (o.keypoints != "accurate" && o.keypoints != "fast")
     fail("--keypoints", "'" + o.keypoints + "' is neither accurate nor fast");
+  if (o.matting != "auto" && o.matting != "off") fail("--matting", "'" + o.matting + "' is neither auto nor off");
   if (o.sheet_tiles < 1) fail("contact sheet", "needs at least one tile");
   parse_frame_range(o.frames);
   std::string out = o.out;
@@ -189,11 +224,56 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     row.reprojection_px = rep.reprojection_px;
     row.silhouette_iou = rep.silhouette_iou;
   }
+  // Matting against the background plate, when the camera stands still.
+  const MattingOptions mo;
+  BackgroundPlate plate;
+  s.matting = opt.matting;
+  if (opt.matting != "off") {
+    say("[4/4] background plate");
+    plate = make_plate(in, frames, mo);
+    s.plate_frames = plate.frames;
+    s.plate_candidates = n;
+    s.plate_hole_share = plate.hole_share;
+    s.background_residual = plate.residual;
+    s.static_threshold = mo.static_threshold;
+    s.matting_used = plate.camera_static(mo);
+    if (!s.matting_used) plate = BackgroundPlate{};
+    say("[4/4] " + matting_report_line(s));
+  }
+
+  // The crop: the person's box over the kept frames (masks and the fitted body), a margin.
+  CropBox person;
+  {
+    Lbs<float> lbs(body);
+    std::vector<float> verts(size_t(body.num_verts) * 3), joints(size_t(kNumJoints) * 3);
+    for (size_t k = 0; k < r.kept.size(); ++k) {
+      const VideoFitInputFrame& f = frames[size_t(r.kept[k])];
+      if (!f.mask.empty()) person = box_union(person, mask_box(f.mask));
+      if (body.num_verts > 0) {
+        lbs.forward(r.params[k], verts.data(), joints.data(), nullptr);
+        person = box_union(person, projected_box(r.camera, verts.data(), body.num_verts));
+      }
+    }
+  }
+  const CropBox box = opt.crop ? dataset_crop(person, in.width, in.height) : CropBox{0, 0, in.width, in.height};
+  s.cropped = opt.crop;  // a person filling the frame is "cropped" to the whole frame
+  s.crop_x0 = box.x0;
+  s.crop_y0 = box.y0;
+  s.crop_w = box.w;
+  s.crop_h = box.h;
+  s.person_height_px = person.h;
+  s.train_resolution = make_preset("tiny").resolution;
+  say("[4/4] " + crop_report_line(s));
+  const Camera dataset_camera = crop_camera(r.camera, box);
+
   const std::string source = "haha fit-video: " + fs::path(opt.input).filename().string() + " (" +
                              std::to_string(r.kept.size()) + " of " + std::to_string(n) + " frames kept)";
   {
-    DatasetWriter writer(stage.string(), in.width, in.height, s.fps, "neutral", source);
-    writer.set_premultiplied(0);  // camera frames: colour is not multiplied by the mask
+    DatasetWriter writer(stage.string(), box.w, box.h, s.fps, "neutral", source);
+    // Matted frames are alpha x colour on black; else camera frames with the tool's masks.
+    writer.set_premultiplied(s.matting_used ? 1 : 0);
+    if (s.cropped) writer.set_source_crop(box.x0, box.y0, box.w, box.h);
+    double band = 0, band_known = 0;  // the edge band's share of the frames, and where the plate knew it
     for (size_t k = 0; k < r.kept.size(); ++k) {
       check_interrupted();
       const int i = r.kept[k];
@@ -203,15 +283,27 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
         fail(in.paths[size_t(i)], "the fit kept this frame but the keypoint tool gave it no mask");
       DatasetFrame df;
       df.split = fit_video_split(opt, int(k), row.source_index);
-      df.camera = r.camera;
+      df.camera = dataset_camera;
       df.params = r.params[k];
       df.source_index = row.source_index;
       df.image_path = in.paths[size_t(i)];
-      writer.add(df, read_image(in.paths[size_t(i)]), f.mask);
+      Image rgb = frame_rgb(in.paths[size_t(i)]), mask = f.mask;
+      if (s.matting_used) {
+        Matte m = refine_matte(rgb, mask, plate, mo);
+        band += m.band_share, band_known += m.band_share * m.band_known;
+        rgb = std::move(m.premultiplied);
+        mask = std::move(m.alpha);
+      }
+      if (s.cropped) {
+        rgb = crop(rgb, box.x0, box.y0, box.w, box.h);
+        mask = crop(mask, box.x0, box.y0, box.w, box.h);
+      }
+      writer.add(df, rgb, mask);
       row.dataset_frame = int(k);
       row.split = df.split;
       ++(df.split == Split::test ? s.test : s.train);
     }
+    if (s.matting_used && band > 0) s.matted_band_share = band_known / band;
     if (s.train == 0) fail(opt.out, "every kept frame went to the test split (--test-every / --test-from): nothing to train on");
     writer.finish();
   }

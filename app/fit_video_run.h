@@ -2,8 +2,9 @@
 // that `haha train` takes as it is. Stages: (1) frames: decoded with ffmpeg or read from
 // the folder, --frames applied (app/fit_video_input.h); (2) keypoints and person masks from
 // tools/keypoints (app/keypoint_tool.h); (3) the SMPL-X fit (a VideoFitter, app/video_fit.h);
-// (4) the dataset of the kept frames plus the fit report and contact sheet
-// (app/fit_video_report.h).
+// (4) the dataset of the kept frames, matted against the background plate when the camera
+// is static (data/background_matting.h) and cropped to the person (app/fit_video_crop.h),
+// plus the fit report and contact sheet (app/fit_video_report.h).
 //
 // OUT after a successful run:
 //   dataset.json, images/, masks/, smplx/params.npz   the dataset (data/dataset.h)
@@ -51,6 +52,10 @@ struct FitVideoOptions {
                                        // averaged with MoveNet) | fast (BlazePose once, ~1.5x faster)
   std::string truth;          // --truth DIR: a dataset with the video's true fits (app/fit_video_truth.h); "" = none
   bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
+  bool crop = true;           // crop the dataset to the person over the kept frames (app/fit_video_crop.h);
+                              // false (--no-crop): the whole frames
+  std::string matting = "auto";  // auto: alpha and premultiplied colour against the background plate when
+                                 // the camera is static (data/background_matting.h) | off: the tool's masks
   int sheet_tiles = 40;       // frames on the contact sheet (plus the dropped ones)
   bool progress = true;       // stage lines on stdout, the tool's progress passed through
 };

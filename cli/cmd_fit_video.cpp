@@ -14,6 +14,7 @@ HAHA_COMMAND(fit_video) {
   struct Opts {
     haha::FitVideoOptions o;
     std::string body;
+    bool no_crop = false;
   };
   auto a = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("fit-video", "Keypoints, masks and SMPL-X fits from a plain video: a dataset for haha train");
@@ -48,11 +49,19 @@ HAHA_COMMAND(fit_video) {
   sub->add_option("--truth", a->o.truth,
                   "dataset with the video's true fits (frames in order, e.g. make-test-video.sh's synth/): "
                   "report the body-joint error after Procrustes (PA-MPJPE)");
+  sub->add_flag("--no-crop", a->no_crop,
+                "keep the whole frames (default: crop the dataset to the person over the kept frames, "
+                "dataset.json source_crop)");
+  sub->add_option("--matting", a->o.matting,
+                  "auto: with a static camera, alpha and colour at the person's edge against the background "
+                  "plate the video shows (a premultiplied dataset) | off: the keypoint tool's masks")
+      ->capture_default_str();
   sub->add_option("--keypoint-tool", a->o.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
   sub->add_option("--model", a->body,
                   "SMPL-X model .npz to fit (default: the procedural body, also written to OUT/body_model.npz)");
   sub->callback([a, fov] {
     a->o.fov_given = fov->count() > 0;
+    a->o.crop = !a->no_crop;
     haha::install_interrupt_handler();  // Ctrl-C: `haha: error: interrupted`, nothing left beside OUT
     haha::validate_fit_video_options(a->o);
     const haha::BodyModel body = haha::synth_body(a->body, haha::BodyResolution::full, 0);

@@ -4,14 +4,16 @@
 # H.264-encoded with ffmpeg so the keypoint tool sees what a user gives it.
 #
 #   scripts/make-test-video.sh OUT [--size 512] [--frames 40] [--test-frames 10] [--seed 0]
-#                                  [--fps 30] [--backdrop black|room] [--still-arms]
+#                                  [--fps 30] [--backdrop black|room|bright] [--still-arms]
 #                                  [--haha build/cli/haha]
 #
 # --backdrop: what stands behind the subject in the videos. black (default): haha synth's
 # frames as they are (premultiplied on black; black leggings on black are a worst case for
 # any person mask); room: a static procedural room (a shaded wall, a tiled floor behind the
 # feet; OUT/backdrop.png) composited behind the subject with the true soft masks, as a
-# tripod video of a person would show it. OUT/synth/ stays on black either way.
+# tripod video of a person would show it; bright: the same with a near-white wall and a
+# light floor, as a home video against a white wall (where a soft mask's leaked backdrop
+# shows most). OUT/synth/ stays on black either way.
 # --still-arms: the subject holds its arms in one A-pose while it turns (`haha synth
 # --still-arms`, as PeopleSnapshot-style captures do) instead of swinging them.
 #
@@ -27,7 +29,7 @@ out="" size=512 frames=40 test_frames=10 seed=0 fps=30 backdrop=black haha="$rep
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     --still-arms) motion=(--still-arms); shift ;;
     --size|--frames|--test-frames|--seed|--fps|--backdrop|--haha)
       [ $# -ge 2 ] || die "$1: needs a value"
@@ -46,7 +48,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -n "$out" ] || die "OUT: missing (usage: scripts/make-test-video.sh OUT [--size 512] ...)"
-case "$backdrop" in black|room) ;; *) die "--backdrop: '$backdrop' is neither black nor room" ;; esac
+case "$backdrop" in black|room|bright) ;; *) die "--backdrop: '$backdrop' is not black, room or bright" ;; esac
 command -v ffmpeg >/dev/null 2>&1 || die "ffmpeg: not installed (apt-get install ffmpeg)"
 [ -x "$haha" ] || die "$haha: not built (cmake --build build --target haha, or give --haha)"
 
@@ -62,10 +64,19 @@ r='if($floor,105+35*$tile,172+22*$wall+$stripes)':\
 g='if($floor,92+32*$tile,160+20*$wall+$stripes)':\
 b='if($floor,80+28*$tile,138+16*$wall+$stripes)'" -frames:v 1 "$out/backdrop.tmp.png"
   mv "$out/backdrop.tmp.png" "$out/backdrop.png"
+elif [ "$backdrop" = bright ]; then
+  # A near-white wall (faint shading, a little darker towards the floor) above a light floor
+  # of large pale tiles.
+  shade="sin(X/53)*sin(Y/71)" fall="Y/H" tile="mod(floor(X/(W/4))+floor((Y-H*0.8)/(H/16)),2)" floor="gt(Y,H*0.8)"
+  ffmpeg -nostdin -y -v error -f lavfi -i "color=c=white:s=${size}x${size}:d=1,format=gbrp,geq=\
+r='if($floor,214+8*$tile,246+5*$shade-12*$fall)':\
+g='if($floor,206+8*$tile,244+5*$shade-12*$fall)':\
+b='if($floor,194+8*$tile,238+5*$shade-12*$fall)'" -frames:v 1 "$out/backdrop.tmp.png"
+  mv "$out/backdrop.tmp.png" "$out/backdrop.png"
 fi
 encode() {  # FIRST COUNT FILE
   local frames_in=(-framerate "$fps" -start_number "$1" -i "$out/synth/images/%06d.png")
-  if [ "$backdrop" = room ]; then
+  if [ "$backdrop" != black ]; then
     # The frames are premultiplied on black: back to straight colour with their soft masks as
     # alpha, then over the backdrop: rgb + backdrop x (1 - mask).
     ffmpeg -nostdin -y -v error "${frames_in[@]}" -framerate "$fps" -start_number "$1" \

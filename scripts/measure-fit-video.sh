@@ -2,7 +2,7 @@
 # The avatar measurement of fit-video: is an avatar trained from `haha fit-video`'s fits as good as
 # one trained from the exact fits, on the same held-out frames?
 #
-#   scripts/measure-fit-video.sh OUT [--held-out novel|every:N] [--backdrop black|room]
+#   scripts/measure-fit-video.sh OUT [--held-out novel|every:N] [--backdrop black|room|bright]
 #        [--still-arms] [--frames N] [--haha build/cli/haha] [--fit "fit-video options"] [--preset tiny|paper]
 #        [--train "key=value ..."] [--eval "--antialias --tto-steps 100"]
 #
@@ -24,7 +24,8 @@
 #    test poses (and test-time pose optimisation) against the same ground-truth pixels as
 #    the exact one:
 #    OUT/fit_eval is OUT/fit with the test frames' images and masks replaced by the synth
-#    PNGs (the video frames are H.264-decoded and the tool's masks are not exact);
+#    PNGs (the video frames are H.264-decoded and the tool's masks are not exact), cut to
+#    the fitted dataset's source_crop (with ffmpeg's crop filter) when fit-video cropped it;
 # 4. prints both eval tables and the two HAHA rows. Needs python3 (the JSON edit of step 3).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
@@ -33,7 +34,7 @@ held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
     --still-arms) motion=(--still-arms); shift ;;
     --held-out|--backdrop|--preset|--haha|--fit|--train|--eval|--frames)
       [ $# -ge 2 ] || die "$1: needs a value"
@@ -72,14 +73,21 @@ stamp 3/5 "eval dataset of the fitted avatar: test frames on the synth pixels"
 rm -rf "$out/fit_eval"
 cp -r "$out/fit" "$out/fit_eval"
 python3 - "$out/fit_eval" "$out/synth" <<'EOF'
-import json, shutil, sys
+import json, shutil, subprocess, sys
 ev, synth = sys.argv[1], sys.argv[2]
 d = json.load(open(ev + "/dataset.json"))
+crop = d.get("source_crop")  # [x0, y0, w, h]: the fitted dataset is this box of the video's frames
 for f in d["frames"]:
     if f["split"] == "test":  # decoded frame i of video_all.mp4 is synth frame i
         i = f["source_index"]
-        shutil.copyfile(synth + "/images/%06d.png" % i, ev + "/" + f["image"])
-        shutil.copyfile(synth + "/masks/%06d.png" % i, ev + "/" + f["mask"])
+        for src, dst in ((synth + "/images/%06d.png" % i, ev + "/" + f["image"]),
+                         (synth + "/masks/%06d.png" % i, ev + "/" + f["mask"])):
+            if crop:  # a lossless cut: the PNG keeps its pixel format (RGB, grey)
+                subprocess.run(["ffmpeg", "-nostdin", "-y", "-v", "error", "-i", src, "-vf",
+                                "crop=%d:%d:%d:%d" % (crop[2], crop[3], crop[0], crop[1]), "-frames:v", "1", dst],
+                               check=True)
+            else:
+                shutil.copyfile(src, dst)
 d["premultiplied"] = True  # the synth PNGs are composited on black with their soft masks
 json.dump(d, open(ev + "/dataset.json.tmp", "w"), indent=1)
 EOF

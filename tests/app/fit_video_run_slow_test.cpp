@@ -80,6 +80,8 @@ TEST_F(FitVideoSlowTest, FolderOfFramesBecomesADatasetWithTheOraclesParameters) 
   o.focal_px = 321;
   o.save_body = true;
   o.truth = path("synth");  // no body_model.npz there: the true fits are posed with low_body()
+  o.crop = false;           // the frames and the tool's masks as they are (the crop and the
+  o.matting = "off";        // matting: fit_video_run_test.cpp)
   const FitVideoSummary s = run_fit_video(o, low_body(), std::cref(oracle));
   EXPECT_EQ(oracle.calls, 1);
   EXPECT_EQ(oracle.seen.focal_px, 321);

@@ -1,6 +1,7 @@
 // `haha fit-video` plumbing without the keypoint models: --frames parsing, video decoding
 // with ffmpeg (count, size, --fps resampling), bad inputs (one error line, nothing left in
-// OUT), the report and the contact-sheet overlay. The full run on `haha synth` frames with
+// OUT), the report and the contact-sheet overlay, the crop and the matting (a stand-in tool
+// hands over prepared masks, a stand-in fitter places the body). The full run on `haha synth` frames with
 // the keypoint tool is in fit_video_run_slow_test.cpp.
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -15,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "app/fit_video_crop.h"
 #include "app/fit_video_input.h"
 #include "app/fit_video_report.h"
 #include "app/fit_video_run.h"
@@ -26,6 +28,7 @@
 #include "core/interrupt.h"
 #include "render/mesh_raster.h"
 #include "support/data_test_util.h"
+#include "support/low_body.h"
 #include "support/stand_in_keypoint_tool.h"
 
 namespace haha {
@@ -460,6 +463,224 @@ TEST_F(FitVideoRunTest, OverlayOutlinesTheRasterizedBodyAndMarksDrops) {
   const Image d = draw_fit_overlay(black, cam, body, {}, KeypointsFrame{}, true);
   EXPECT_EQ(d.at(0, 0, 0), 1.0f);
   EXPECT_EQ(d.at(32, 32, 1), 0.0f);
+}
+
+// A disc "person" (soft 3 px edge) crossing a bright textured wall; the tool's masks are
+// wider and softer than the truth, as a segmentation model's are. The fit keeps the two
+// middle frames: the crop follows them, the plate uses every frame.
+constexpr int kVw = 96, kVh = 64, kVframes = 6;
+constexpr double kDisc = 10;
+double disc_x(int i) { return 20 + 11.0 * i; }
+float wall(int x, int y, int c) { return float(0.85 + 0.02 * c + 0.08 * std::sin(x / 3.0) * std::cos(y / 4.0)); }
+float disc_dist(int x, int y, int i) { return float(std::hypot(x + 0.5 - disc_x(i), y + 0.5 - kVh / 2.0)); }
+float disc_alpha(int x, int y, int i) {
+  return std::clamp((float(kDisc) + 1.5f - disc_dist(x, y, i)) / 3.0f, 0.0f, 1.0f);
+}
+float disc_tool_mask(int x, int y, int i) {
+  return std::clamp((float(kDisc) + 1.5f - disc_dist(x, y, i)) / 4.0f + 0.5f, 0.0f, 1.0f);
+}
+const std::vector<int> kKept = {2, 3};
+
+class FitVideoCropMattingTest : public FitVideoRunTest {
+ protected:
+  void SetUp() override {
+    FitVideoRunTest::SetUp();
+    if (!program_on_path("node")) GTEST_SKIP() << "node is not installed";
+    // The stand-in tool copies the prepared keypoints and masks (HAHA_TEST_KP) to its output.
+    test::write_stand_in_keypoint_tool(path("tool"),
+                                       "import fs from 'fs';\n"
+                                       "fs.cpSync(process.env.HAHA_TEST_KP, process.argv[3], {recursive: true});\n");
+    fs::create_directories(path("kp/keypoints"));
+    fs::create_directories(path("kp/masks"));
+    for (int i = 0; i < kVframes; ++i) {
+      char stem[16];
+      std::snprintf(stem, sizeof stem, "%06d", i);
+      Image m(kVw, kVh, 1);
+      for (int y = 0; y < kVh; ++y)
+        for (int x = 0; x < kVw; ++x) m.at(x, y, 0) = disc_tool_mask(x, y, i);
+      write_image(path("kp/masks/") + stem + ".png", m);
+      round_to_8bit(m);
+      tool_masks_.push_back(m);
+      nlohmann::json body = nlohmann::json::array();
+      for (int k = 0; k < kBodyKeypoints; ++k) body.push_back({disc_x(i), kVh / 2.0 - 8 + k * 0.5, 0.9});
+      const nlohmann::json j = {{"format", "haha-keypoints"},
+                                {"version", 1},
+                                {"frame", std::string(stem) + ".png"},
+                                {"width", kVw},
+                                {"height", kVh},
+                                {"people", 1},
+                                {"score", 0.9},
+                                {"body", body},
+                                {"body_world", nullptr},
+                                {"left_hand", nullptr},
+                                {"right_hand", nullptr},
+                                {"mask", std::string("masks/") + stem + ".png"},
+                                {"model", "stand-in"}};
+      write_text_file(path("kp/keypoints/") + stem + ".json", j.dump());
+    }
+  }
+  // The frames (the wall moving `shift` px a frame: a camera that pans), as PNGs.
+  std::string frames(const std::string& name, int shift) {
+    const std::string dir = path(name);
+    fs::create_directories(dir);
+    for (int i = 0; i < kVframes; ++i) {
+      Image img(kVw, kVh, 3);
+      for (int y = 0; y < kVh; ++y)
+        for (int x = 0; x < kVw; ++x) {
+          const float a = disc_alpha(x, y, i);
+          const float person[3] = {0.5f, 0.2f, 0.15f};
+          for (int c = 0; c < 3; ++c) img.at(x, y, c) = a * person[c] + (1 - a) * wall(x + shift * i, y, c);
+        }
+      char f[32];
+      std::snprintf(f, sizeof f, "img_%03d.png", i);
+      write_image((fs::path(dir) / f).string(), img);
+    }
+    return dir;
+  }
+  // Keeps frames kKept, the (low) body 40 m away on the disc: its outline lies inside the mask.
+  static VideoFitResult fitter(const std::vector<VideoFitInputFrame>& in, const VideoFitOptions&) {
+    VideoFitResult r;
+    r.camera.width = kVw;
+    r.camera.height = kVh;
+    r.camera.fx = r.camera.fy = 100;
+    r.camera.cx = kVw / 2.0f;
+    r.camera.cy = kVh / 2.0f;
+    for (size_t i = 0; i < in.size(); ++i) {
+      VideoFitFrameReport rep;
+      rep.reprojection_px = 1;
+      rep.silhouette_iou = 0.9;
+      rep.dropped = std::find(kKept.begin(), kKept.end(), int(i)) == kKept.end();
+      rep.reason = rep.dropped ? "stand-in drops it" : "";
+      r.report.push_back(rep);
+      if (rep.dropped) continue;
+      r.kept.push_back(int(i));
+      SmplxParams p;
+      p.transl[0] = float((disc_x(int(i)) - kVw / 2.0) * 40 / 100);
+      p.transl[2] = 40;
+      r.params.push_back(p);
+    }
+    return r;
+  }
+  FitVideoSummary run(const std::string& in, bool crop, const std::string& matting) {
+    FitVideoOptions o = options(in);
+    o.crop = crop;
+    o.matting = matting;
+    ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), k("HAHA_TEST_KP", path("kp"));
+    return run_fit_video(o, test::low_body(), fitter);
+  }
+  // The expected crop: the union of the tool's masks (> 0.5) with the margin.
+  CropBox expected_crop() const {
+    CropBox u;
+    for (int i : kKept) u = box_union(u, mask_box(tool_masks_[size_t(i)]));
+    return dataset_crop(u, kVw, kVh);
+  }
+  std::vector<Image> tool_masks_;
+};
+
+TEST_F(FitVideoCropMattingTest, StaticCameraCropsAndMatsTheDataset) {
+  const FitVideoSummary s = run(frames("in", 0), true, "auto");
+  const CropBox box = expected_crop();
+  ASSERT_LT(box.w, kVw) << "the person's box must leave something to crop";
+  ASSERT_LT(box.h, kVh);
+  EXPECT_TRUE(s.cropped);
+  EXPECT_TRUE(s.matting_used);
+  EXPECT_EQ(s.plate_frames, kVframes);
+  EXPECT_EQ(s.plate_hole_share, 0.0);  // the disc crosses the frame
+  EXPECT_LT(s.background_residual, 1.0 / 255);
+  EXPECT_EQ(s.person_height_px, mask_box(tool_masks_[2]).h);
+  EXPECT_EQ(s.kept, 2);
+
+  const Dataset ds = read_dataset(path("out"));
+  EXPECT_EQ(ds.width, box.w);
+  EXPECT_EQ(ds.height, box.h);
+  EXPECT_EQ(ds.width % 2 + ds.height % 2, 0);
+  EXPECT_EQ(ds.source_crop, (std::array<int, 4>{box.x0, box.y0, box.w, box.h}));
+  EXPECT_EQ(ds.premultiplied, 1);
+  EXPECT_FLOAT_EQ(ds.frames[0].camera.cx, kVw / 2.0f - box.x0);
+  EXPECT_FLOAT_EQ(ds.frames[0].camera.cy, kVh / 2.0f - box.y0);
+  EXPECT_EQ(ds.frames[0].camera.fx, 100);
+  double err = 0, tool_err = 0;
+  int n = 0;
+  ASSERT_EQ(ds.frames.size(), kKept.size());
+  for (size_t k = 0; k < kKept.size(); ++k) {
+    const int i = kKept[k];
+    const DatasetFrame& f = ds.frames[k];
+    const Image source = read_image(path("out/work/frames/00000") + std::to_string(i) + ".png");
+    for (int y = 0; y < ds.height; ++y)
+      for (int x = 0; x < ds.width; ++x) {
+        const int u = x + box.x0, v = y + box.y0;  // the same content pixel in the frame
+        const float a = f.mask.at(x, y, 0);
+        for (int c = 0; c < 3; ++c) ASSERT_LE(f.image.at(x, y, c), a + 0.5f / 255) << "premultiplied: colour <= alpha";
+        if (disc_dist(u, v, i) < kDisc - 6) {
+          for (int c = 0; c < 3; ++c) EXPECT_EQ(f.image.at(x, y, c), source.at(u, v, c)) << "the core keeps its pixels";
+        }
+        if (std::abs(disc_dist(u, v, i) - kDisc) < 3) {  // the soft edge and beside it
+          err += std::abs(a - disc_alpha(u, v, i));
+          tool_err += std::abs(tool_masks_[size_t(i)].at(u, v, 0) - disc_alpha(u, v, i));
+          ++n;
+        }
+      }
+  }
+  ASSERT_GT(n, 100);
+  EXPECT_LT(err / n, 0.5 * tool_err / n) << "alpha against the plate beats the tool's mask";
+
+  const std::string table = read_text_file(path("out/fit_report.txt"));
+  EXPECT_NE(table.find("\ncrop " + std::to_string(box.w) + "x" + std::to_string(box.h) + " at (" +
+                       std::to_string(box.x0) + ", " + std::to_string(box.y0) + ") of the 96x64 frames"),
+            std::string::npos)
+      << table;
+  EXPECT_NE(table.find("background plate from 6 of 6 frames, holes 0.0 % of the frame; camera static"),
+            std::string::npos) << table;
+  EXPECT_NE(table.find("matting on"), std::string::npos) << table;
+  const auto j = nlohmann::json::parse(read_text_file(path("out/fit_report.json")));
+  EXPECT_EQ(j["crop"]["width"], box.w);
+  EXPECT_EQ(j["matting"]["used"], true);
+  EXPECT_EQ(j["matting"]["plate_frames"], kVframes);
+  EXPECT_NEAR(j["person_height_train_px"].get<double>(), s.person_height_px * 128.0 / std::max(box.w, box.h), 1e-9);
+  EXPECT_TRUE(leftovers().empty());
+}
+
+TEST_F(FitVideoCropMattingTest, NoCropAndMattingOffKeepTodaysDataset) {
+  const FitVideoSummary s = run(frames("in", 0), false, "off");
+  EXPECT_FALSE(s.cropped);
+  EXPECT_FALSE(s.matting_used);
+  const Dataset ds = read_dataset(path("out"));
+  EXPECT_EQ(ds.width, kVw);
+  EXPECT_EQ(ds.height, kVh);
+  EXPECT_EQ(ds.source_crop[2], 0);
+  EXPECT_EQ(ds.premultiplied, 0);
+  EXPECT_EQ(ds.frames[0].camera.cx, kVw / 2.0f);
+  ASSERT_EQ(ds.frames.size(), kKept.size());
+  for (size_t k = 0; k < kKept.size(); ++k) {
+    const int i = kKept[k];
+    EXPECT_EQ(ds.frames[k].mask.data, tool_masks_[size_t(i)].data) << "the tool's mask, frame " << i;
+    EXPECT_EQ(ds.frames[k].image.data, read_image(path("in/img_00") + std::to_string(i) + ".png").data);
+  }
+  const std::string table = read_text_file(path("out/fit_report.txt"));
+  EXPECT_NE(table.find("\nno crop (--no-crop): the whole 96x64 frames: the person is "), std::string::npos) << table;
+  EXPECT_NE(table.find("\nmatting off (--matting off): the keypoint tool's masks\n"), std::string::npos) << table;
+  EXPECT_EQ(read_text_file(path("out/dataset.json")).find("source_crop"), std::string::npos);
+}
+
+TEST_F(FitVideoCropMattingTest, AMovingCameraKeepsTheToolsMasksAndSaysSo) {
+  const FitVideoSummary s = run(frames("in", 4), true, "auto");  // the wall pans 4 px a frame
+  EXPECT_FALSE(s.matting_used);
+  EXPECT_GT(s.background_residual, s.static_threshold);
+  const Dataset ds = read_dataset(path("out"));
+  EXPECT_EQ(ds.premultiplied, 0);
+  const CropBox box = expected_crop();
+  ASSERT_EQ(ds.frames.size(), kKept.size());
+  for (size_t k = 0; k < kKept.size(); ++k)
+    EXPECT_EQ(ds.frames[k].mask.data, crop(tool_masks_[size_t(kKept[k])], box.x0, box.y0, box.w, box.h).data) << k;
+  const std::string table = read_text_file(path("out/fit_report.txt"));
+  EXPECT_NE(table.find("camera moving (background residual "), std::string::npos) << table;
+  EXPECT_NE(table.find("matting off, the keypoint tool's masks\n"), std::string::npos) << table;
+}
+
+TEST_F(FitVideoRunTest, MattingOptionIsChecked) {
+  FitVideoOptions o = options(image_folder("in", 1, 16, 16));
+  o.matting = "always";
+  expect_error_at("--matting", [&] { validate_fit_video_options(o); }, {"always", "auto", "off"});
 }
 
 }  // namespace
