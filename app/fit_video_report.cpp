@@ -90,8 +90,9 @@ std::string matting_report_line(const FitVideoSummary& s) {
   if (s.matting.empty()) return "";
   if (s.matting == "off") return "matting off (--matting off): the keypoint tool's masks";
   char b[512];
-  std::snprintf(b, sizeof b, "background plate from %d of %d frames, holes %.1f %% of the frame; ", s.plate_frames,
-                s.plate_candidates, 100.0 * s.plate_hole_share);
+  std::snprintf(b, sizeof b, "background plate from %d of %d frames, holes %.1f %% of the frame (%.1f %% filled from the "
+                "plain background beside them); ", s.plate_frames, s.plate_candidates, 100.0 * s.plate_hole_share,
+                100.0 * s.plate_filled_share);
   std::string out = b;
   if (!std::isfinite(s.background_residual))
     return out + "no background seen to judge the camera by: matting off, the keypoint tool's masks";
@@ -101,8 +102,8 @@ std::string matting_report_line(const FitVideoSummary& s) {
   if (!s.matting_used) return out + "matting off, the keypoint tool's masks";
   out += "matting on, the dataset is premultiplied (alpha x colour against the plate)";
   if (std::isfinite(s.matted_band_share)) {
-    std::snprintf(b, sizeof b, "; the plate is known at %.1f %% of the mask's edge band (the tool's mask elsewhere)",
-                  100.0 * s.matted_band_share);
+    std::snprintf(b, sizeof b, "; the plate is known at %.1f %% of the mask's edge band (%.1f %% filled; the tool's mask "
+                  "elsewhere)", 100.0 * s.matted_band_share, 100.0 * s.filled_band_share);
     out += b;
   }
   return out;
@@ -142,10 +143,14 @@ std::string fit_report_json(const FitVideoSummary& s) {
       m["plate_frames"] = s.plate_frames;
       m["plate_candidates"] = s.plate_candidates;
       m["hole_share"] = number_or_null(s.plate_hole_share);
+      m["filled_share"] = number_or_null(s.plate_filled_share);
       m["background_residual"] = number_or_null(s.background_residual);
       m["static_threshold"] = number_or_null(s.static_threshold);
       m["camera_static"] = s.matting_used;
-      if (s.matting_used) m["matted_band_share"] = number_or_null(s.matted_band_share);
+      if (s.matting_used) {
+        m["matted_band_share"] = number_or_null(s.matted_band_share);
+        m["filled_band_share"] = number_or_null(s.filled_band_share);
+      }
     }
     j["matting"] = std::move(m);
   }

@@ -52,8 +52,10 @@ struct FitVideoSummary {
   std::string matting;            // auto | off ("" = not reported)
   bool matting_used = false;
   int plate_frames = 0, plate_candidates = 0;
-  double plate_hole_share = NAN, background_residual = NAN, static_threshold = NAN;
+  double plate_hole_share = NAN, plate_filled_share = NAN;  // holes: never seen; filled: holes filled from a plain wall
+  double background_residual = NAN, static_threshold = NAN;
   double matted_band_share = NAN;  // share of the kept frames' edge band where the plate was known (matted)
+  double filled_band_share = NAN;  // ... where it was a filled hole
   double mean_reprojection_px = 0, mean_silhouette_iou = 0;  // over kept frames with a value (NaN: none)
   std::string truth;               // --truth DIR ("" = none): the joint error is reported
   double mean_joint_error_mm = NAN;  // over kept frames with a value (NaN: none)

@@ -234,6 +234,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     s.plate_frames = plate.frames;
     s.plate_candidates = n;
     s.plate_hole_share = plate.hole_share;
+    s.plate_filled_share = plate.filled_share;
     s.background_residual = plate.residual;
     s.static_threshold = mo.static_threshold;
     s.matting_used = plate.camera_static(mo);
@@ -273,7 +274,8 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     // Matted frames are alpha x colour on black; else camera frames with the tool's masks.
     writer.set_premultiplied(s.matting_used ? 1 : 0);
     if (s.cropped) writer.set_source_crop(box.x0, box.y0, box.w, box.h);
-    double band = 0, band_known = 0;  // the edge band's share of the frames, and where the plate knew it
+    double band = 0, band_known = 0, band_filled = 0;  // the edge band's share of the frames, where the plate
+                                                       // knew it, where that was a filled hole
     for (size_t k = 0; k < r.kept.size(); ++k) {
       check_interrupted();
       const int i = r.kept[k];
@@ -290,7 +292,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
       Image rgb = frame_rgb(in.paths[size_t(i)]), mask = f.mask;
       if (s.matting_used) {
         Matte m = refine_matte(rgb, mask, plate, mo);
-        band += m.band_share, band_known += m.band_share * m.band_known;
+        band += m.band_share, band_known += m.band_share * m.band_known, band_filled += m.band_share * m.band_filled;
         rgb = std::move(m.premultiplied);
         mask = std::move(m.alpha);
       }
@@ -303,7 +305,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
       row.split = df.split;
       ++(df.split == Split::test ? s.test : s.train);
     }
-    if (s.matting_used && band > 0) s.matted_band_share = band_known / band;
+    if (s.matting_used && band > 0) s.matted_band_share = band_known / band, s.filled_band_share = band_filled / band;
     if (s.train == 0) fail(opt.out, "every kept frame went to the test split (--test-every / --test-from): nothing to train on");
     writer.finish();
   }

@@ -1,7 +1,6 @@
 #include "data/background_matting.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -64,15 +63,15 @@ int64_t seed_d2(const std::vector<int32_t>& near, size_t p, int W) {
   return dx * dx + dy * dy;
 }
 
-// Median of a 256-bin histogram (the lower one for an even count); -1 for an empty one.
-int histogram_median(const std::array<int64_t, 256>& h) {
+// Median of a histogram (the lower one for an even count); -1 for an empty one.
+int histogram_median(const std::vector<int64_t>& h) {
   int64_t n = 0;
   for (int64_t c : h) n += c;
   if (n == 0) return -1;
   int64_t seen = 0;
-  for (int v = 0; v < 256; ++v)
-    if ((seen += h[size_t(v)]) * 2 >= n) return v;
-  return 255;
+  for (size_t v = 0; v < h.size(); ++v)
+    if ((seen += h[v]) * 2 >= n) return int(v);
+  return int(h.size()) - 1;
 }
 
 }  // namespace
@@ -156,21 +155,21 @@ BackgroundPlate BackgroundPlateBuilder::build() const {
   b.hole_share = P ? double(holes) / double(P) : 0.0;
 
   // Per frame: the median over its uncovered pixels of the mean |I - B| (in 1/255 steps).
-  std::vector<uint8_t> plate8(P * 3);
+  std::vector<uint8_t> plate8(P * 3);  // the residual: seen pixels only (the fill comes below)
   for (size_t k = 0; k < P * 3; ++k) plate8[k] = to_8bit(b.rgb.data[k]);
   b.frame_residual.assign(size_t(n_), NAN);
   parallel_for_dynamic(n_, [&](int64_t f) {
-    std::array<int64_t, 256> hist{};
+    std::vector<int64_t> hist(3 * 255 + 1);  // of the summed |I - B| over RGB, in 1/255 steps
     const uint8_t* px = &rgb_[size_t(f) * P * 3];
     const uint8_t* cov = &cover_[size_t(f) * P];
     for (size_t p = 0; p < P; ++p) {
       if (cov[p] || !b.known[p]) continue;
       int d = 0;
       for (int c = 0; c < 3; ++c) d += std::abs(int(px[p * 3 + c]) - int(plate8[p * 3 + c]));
-      ++hist[size_t((d + 1) / 3)];
+      ++hist[size_t(d)];
     }
     const int m = histogram_median(hist);
-    if (m >= 0) b.frame_residual[size_t(f)] = m / 255.0;
+    if (m >= 0) b.frame_residual[size_t(f)] = m / (3 * 255.0);
   });
   std::vector<double> r;
   for (double v : b.frame_residual)
@@ -179,6 +178,38 @@ BackgroundPlate BackgroundPlateBuilder::build() const {
     std::sort(r.begin(), r.end());
     b.residual = r[(r.size() - 1) / 2];
   }
+
+  // Holes near seen pixels take the nearest seen pixel's colour where the seen background
+  // around that pixel is smooth (a plain wall: the fill is right); next to texture or an
+  // edge (a tiled floor, a door frame) they stay holes.
+  const int band = opt_.band_px > 0 ? opt_.band_px : matting_band_px(w_, h_);
+  const int fill = opt_.fill_px > 0 ? opt_.fill_px : 10 * band, around = 2 * band;
+  std::vector<uint8_t> seen(P);
+  for (size_t p = 0; p < P; ++p) seen[p] = b.known[p] == 1;
+  const std::vector<int32_t> near = nearest_seed(seen, w_, h_);
+  std::vector<int8_t> smooth(P, -1);  // per seen pixel: -1 not yet asked, 0 / 1
+  auto is_smooth = [&](int32_t s) {
+    if (smooth[size_t(s)] < 0) {
+      const int sx = s % w_, sy = s / w_;
+      bool ok = true;
+      for (int y = std::max(0, sy - around); ok && y <= std::min(h_ - 1, sy + around); ++y)
+        for (int x = std::max(0, sx - around); ok && x <= std::min(w_ - 1, sx + around); ++x)
+          if (seen[size_t(y) * w_ + x])
+            for (int c = 0; c < 3; ++c)
+              ok = ok && std::abs(b.rgb.at(x, y, c) - b.rgb.at(sx, sy, c)) <= opt_.fill_smooth;
+      smooth[size_t(s)] = ok;
+    }
+    return smooth[size_t(s)] == 1;
+  };
+  size_t filled = 0;
+  const int64_t fill2 = int64_t(fill) * fill;
+  for (size_t p = 0; p < P; ++p) {
+    if (b.known[p] || seed_d2(near, p, w_) > fill2 || !is_smooth(near[p])) continue;
+    b.known[p] = 2;
+    for (int c = 0; c < 3; ++c) b.rgb.data[p * 3 + c] = b.rgb.data[size_t(near[p]) * 3 + c];
+    ++filled;
+  }
+  b.filled_share = P ? double(filled) / double(P) : 0.0;
   return b;
 }
 
@@ -233,7 +264,7 @@ Matte refine_matte(const Image& rgb, const Image& mask, const BackgroundPlate& p
     return -1;
   };
 
-  size_t band = 0, band_known = 0;
+  size_t band = 0, band_known = 0, band_filled = 0;
   const float lo = 0.05f, hi = 0.95f;  // a dead zone at both ends: codec noise is not a veil of alpha
   for (size_t p = 0; p < P; ++p) {
     const float* I = &rgb.data[p * 3];
@@ -256,6 +287,7 @@ Matte refine_matte(const Image& rgb, const Image& mask, const BackgroundPlate& p
       continue;
     }
     ++band_known;
+    band_filled += plate.known[p] == 2;
     const float* B = &plate.rgb.data[p * 3];
     float est = tool, w = 0.0f;
     if (const int32_t q = foreground_of(p); q >= 0) {
@@ -274,6 +306,7 @@ Matte refine_matte(const Image& rgb, const Image& mask, const BackgroundPlate& p
   }
   m.band_share = P ? double(band) / double(P) : 0.0;
   m.band_known = band ? double(band_known) / double(band) : 0.0;
+  m.band_filled = band ? double(band_filled) / double(band) : 0.0;
   return m;
 }
 

@@ -16,7 +16,9 @@ namespace {
 constexpr int kW = 160, kH = 96;
 constexpr double kR = 12;  // the disc's radius, px
 
+bool g_plain_wall = false;  // a smooth wall instead of the textured one
 float backdrop(int x, int y, int c) {  // a bright wall with a texture a camera shift shows
+  if (g_plain_wall) return float(0.86 + 0.02 * c - 0.0004 * x + 0.0002 * y);
   return float(0.82 + 0.02 * c + 0.1 * std::sin(x / 3.0) * std::cos(y / 4.0));
 }
 float foreground(int x, int y, int c) {  // the person's colour: dark red with a gradient
@@ -112,6 +114,35 @@ TEST(BackgroundMatting, ARegionThePersonNeverLeavesIsAHole) {
   ASSERT_FALSE(p.known[size_t(y) * kW + x]);
   EXPECT_EQ(m.alpha.at(x, y, 0), f.mask.at(x, y, 0));
   EXPECT_LT(m.band_known, 1.0);
+  EXPECT_EQ(p.filled_share, 0.0) << "next to texture the holes stay holes";
+}
+
+TEST(BackgroundMatting, HolesNextToAPlainWallAreFilledAndMatted) {
+  g_plain_wall = true;
+  std::vector<double> c;
+  for (int i = 0; i < 10; ++i) c.push_back(70 + i * 20.0 / 9);  // the person never leaves x = 80
+  const BackgroundPlate p = plate_of(c);
+  EXPECT_GT(p.hole_share, 0.08);
+  EXPECT_NEAR(p.filled_share, p.hole_share, 1e-9) << "every hole is within reach of the wall";
+  EXPECT_EQ(p.known[size_t(kH / 2) * kW + 80], 2);
+  const double cx = 80;
+  const Frame f = make_frame(cx);
+  const Matte m = refine_matte(f.rgb, f.mask, p, options());
+  EXPECT_GT(m.band_filled, 0.3);
+  double err = 0, tool_err = 0;
+  int n = 0;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) {
+      const double d = dist(x, y, cx);
+      if (d < kR - 3 || d > kR + 3 || p.known[size_t(y) * kW + x] != 2) continue;
+      err += std::abs(m.alpha.at(x, y, 0) - true_alpha(x, y, cx));
+      tool_err += std::abs(f.mask.at(x, y, 0) - true_alpha(x, y, cx));
+      ++n;
+    }
+  g_plain_wall = false;
+  ASSERT_GT(n, 50);
+  EXPECT_LT(err / n, 0.06) << "the tool's mask: " << tool_err / n;
+  EXPECT_LT(err, 0.3 * tool_err);
 }
 
 TEST(BackgroundMatting, AlphaAndPremultipliedColourAreRecoveredAtSoftEdges) {
