@@ -25,7 +25,9 @@
 #    the exact one:
 #    OUT/fit_eval is OUT/fit with the test frames' images and masks replaced by the synth
 #    PNGs (the video frames are H.264-decoded and the tool's masks are not exact), cut to
-#    the fitted dataset's source_crop (with ffmpeg's crop filter) when fit-video cropped it;
+#    the fitted dataset's source_crop (with ffmpeg's crop filter) when fit-video cropped it.
+#    Cropped, the fitted avatar trains and is scored on the person's box, the exact one on
+#    the whole frames (more easy background): for like-for-like PSNRs give --fit --no-crop;
 # 4. prints both eval tables and the two HAHA rows. Needs python3 (the JSON edit of step 3).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
@@ -34,7 +36,7 @@ held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,29p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
     --still-arms) motion=(--still-arms); shift ;;
     --held-out|--backdrop|--preset|--haha|--fit|--train|--eval|--frames)
       [ $# -ge 2 ] || die "$1: needs a value"
