@@ -141,11 +141,6 @@ class Heartbeat {
 };
 
 
-bool opt_true(const std::vector<std::pair<std::string, std::string>>& kv, const std::string& key) {
-  for (const auto& [k, v] : kv)
-    if (k == key) return v == "true";
-  return false;
-}
 const std::string* opt_get(const std::vector<std::pair<std::string, std::string>>& kv, const std::string& key) {
   const std::string* r = nullptr;
   for (const auto& [k, v] : kv)
@@ -394,7 +389,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
         eo.run_dir = run.dir;
         eo.split = sp;
         eo.print_table = false;
-        eo.antialias = opt_true(s.eval, "antialias");
+        if (const std::string* v = opt_get(s.eval, "antialias")) eo.antialias = *v == "true" ? 1 : 0;  // else the run's
         if (const std::string* v = opt_get(s.eval, "tto-steps")) eo.tto_steps = std::stoi(*v);
         if (const std::string* v = opt_get(s.eval, "frames")) eo.frames = std::stoi(*v);
         if (const std::string* v = opt_get(s.eval, "background")) eo.background = *v;

@@ -43,7 +43,8 @@ EvalReport run_eval(const EvalRunOptions& o) {
   for (float& c : opt.background) c = bgv;
   opt.premultiplied = dataset_premultiplied(ds, info.config.premultiplied);
   opt.keep_images = o.sheet_frames;
-  opt.antialias = o.antialias;
+  if (o.antialias < -1 || o.antialias > 1) fail("--antialias", "expected -1 (the run's), 0 or 1");
+  opt.antialias = o.antialias >= 0 ? o.antialias == 1 : info.config.eval_antialias;
   std::unique_ptr<LpipsNet<float>> alex;
   LpipsWeights lw;
   const std::string lp = o.lpips_weights.empty() ? info.lpips_weights_path : o.lpips_weights;
@@ -65,10 +66,13 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.tto_steps = opt.tto_steps;
   r.antialias = opt.antialias;
   r.lpips_available = alex != nullptr;
+  // What the run changed from its preset: the user's keys, and for estimated fits
+  // "fits=estimated" with the settings it brought (train/config.h make_run_config).
+  // "fits=exact" is the preset's own settings: not a switch.
   const TrainConfig defaults = make_preset(info.config.preset);
   for (const auto& [k, v] : config_to_pairs(info.config))
     for (const auto& [k0, v0] : config_to_pairs(defaults))
-      if (k == k0 && v != v0) r.switches.push_back(k + "=" + v);
+      if (k == k0 && v != v0 && !(k == "fits" && v == "exact")) r.switches.push_back(k + "=" + v);
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
   for (const EvalVariant& v : paper_variants(filtered, full)) {

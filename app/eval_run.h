@@ -21,7 +21,8 @@ struct EvalRunOptions {
   int sheet_frames = 4;              // frames on the contact sheet
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
   bool print_table = true;           // one line per variant on stdout while it runs
-  bool antialias = false;            // antialiased mesh silhouette (EvalOptions::antialias)
+  int antialias = -1;                // antialiased mesh silhouette (EvalOptions::antialias): 1 on
+                                     // (--antialias), 0 off (--no-antialias), -1 the run's eval.antialias
 };
 
 // Evaluates the four variants, writes the report files and returns the report.

@@ -52,6 +52,8 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   } else {
     if (opt.data_dir.empty()) fail("--data", "no dataset directory given");
     if (!fs::is_directory(opt.data_dir)) fail(opt.data_dir, "dataset directory not found");
+    // Bad keys and values fail here, before any reading; the settings for estimated fits
+    // come once the dataset says what its fits are (below).
     info.config = make_preset(opt.preset);
     apply_overrides(info.config, opt.overrides, "override");
     validate_config(info.config);
@@ -69,6 +71,11 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   // Everything is read and validated before the first step.
   const BodyModel body = load_body_model(info.model_path);
   Dataset ds = read_dataset(info.data_path, LoadPixels::all);
+  if (!opt.resume) {  // a resumed run keeps its saved config
+    std::string picked;
+    info.config = make_run_config(opt.preset, opt.overrides, fits_name(ds.fits), &picked);
+    log(picked);
+  }
   LpipsWeights lw;
   if (!info.lpips_weights_path.empty()) lw = read_lpips_weights(info.lpips_weights_path);
   TrainInput input;

@@ -10,7 +10,7 @@
 HAHA_COMMAND(eval) {
   struct Opts {
     haha::EvalRunOptions run;
-    bool json = false;
+    bool json = false, antialias = false, no_antialias = false;
   };
   auto a = std::make_shared<Opts>();
   haha::EvalRunOptions& r = a->run;
@@ -20,15 +20,20 @@ HAHA_COMMAND(eval) {
   sub->add_option("--out", r.out_dir, "folder for report.json, report.md and eval_sheet.png (default: the run directory)");
   sub->add_option("--split", r.split, "train or test")->capture_default_str();
   sub->add_option("--background", r.background, "black or white")->capture_default_str();
-  sub->add_option("--tto-steps", r.tto_steps, "test-time pose optimisation steps (default: the run's; 0 = off)");
+  sub->add_option("--tto-steps", r.tto_steps,
+                  "test-time pose optimisation steps (default: the run's eval.tto_steps; 0 = off)");
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--sheet-frames", r.sheet_frames, "frames on the contact sheet")->capture_default_str();
   sub->add_option("--lpips-weights", r.lpips_weights, "LPIPS weight file (AlexNet part used); default: the run's");
-  sub->add_flag("--antialias", r.antialias,
-                "antialias the mesh silhouette in test-time pose optimisation and the final render");
+  auto* aa = sub->add_flag("--antialias", a->antialias,
+                           "antialias the mesh silhouette in test-time pose optimisation and the final render "
+                           "(default: the run's eval.antialias, true for estimated fits)");
+  sub->add_flag("--no-antialias", a->no_antialias, "the mesh silhouette as rasterized, whatever the run says")
+      ->excludes(aa);
   sub->add_flag("--json", a->json, "print report.json instead of the table");
   sub->callback([a] {
     a->run.print_table = !a->json;
+    a->run.antialias = a->antialias ? 1 : a->no_antialias ? 0 : -1;
     const haha::EvalReport rep = haha::run_eval(a->run);
     if (a->json)
       std::printf("%s", haha::eval_report_json(rep).c_str());

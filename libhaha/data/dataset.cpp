@@ -34,6 +34,16 @@ Split parse_split(const std::string& s, const std::string& where) {
   fail(where, "split '" + s + "' is neither \"train\" nor \"test\"");
 }
 
+const char* fits_name(Fits f) {
+  return f == Fits::exact ? "exact" : f == Fits::estimated ? "estimated" : "";
+}
+
+Fits parse_fits(const std::string& s, const std::string& where) {
+  if (s == "exact") return Fits::exact;
+  if (s == "estimated") return Fits::estimated;
+  fail(where, "'" + s + "' is neither \"exact\" nor \"estimated\"");
+}
+
 namespace {
 
 // Camera <-> the dataset.json camera object (io/camera_json.h's keys minus the size,
@@ -196,7 +206,7 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
   for (const auto& [k, v] : root.items()) {
     (void)v;
     static const char* known[] = {"format", "version", "width", "height", "fps",        "gender",
-                                  "source", "source_crop", "premultiplied", "camera", "smplx", "smplx_true", "frames"};
+                                  "source", "source_crop", "premultiplied", "fits", "camera", "smplx", "smplx_true", "frames"};
     bool ok = false;
     for (const char* kk : known) ok = ok || k == kk;
     if (!ok) fail(where(k), "unknown key");
@@ -250,6 +260,10 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
       fail(where("source_crop"), "box is " + std::to_string(ds.source_crop[2]) + "x" +
                                      std::to_string(ds.source_crop[3]) + ", the dataset " + std::to_string(ds.width) +
                                      "x" + std::to_string(ds.height));
+  }
+  if (root.contains("fits")) {
+    if (!root["fits"].is_string()) fail(where("fits"), "expected \"exact\" or \"estimated\"");
+    ds.fits = parse_fits(root["fits"].get<std::string>(), where("fits"));
   }
   bool have_static = false;
   Camera static_cam;
@@ -343,6 +357,7 @@ struct DatasetWriter::State {
   int with_truth = 0;
   int premultiplied = -1;
   std::array<int, 4> source_crop{};  // w = 0: none
+  Fits fits = Fits::unknown;
   bool finished = false;
 };
 
@@ -376,6 +391,8 @@ void DatasetWriter::set_premultiplied(int flag) {
   if (flag < -1 || flag > 1) fail(s_->dir.string(), "premultiplied flag must be -1, 0 or 1");
   s_->premultiplied = flag;
 }
+
+void DatasetWriter::set_fits(Fits fits) { s_->fits = fits; }
 
 void DatasetWriter::set_source_crop(int x0, int y0, int w, int h) {
   if (x0 < 0 || y0 < 0 || w != s_->width || h != s_->height)
@@ -466,6 +483,7 @@ void DatasetWriter::finish() {
   root["source"] = s.source;
   if (s.source_crop[2] > 0) root["source_crop"] = s.source_crop;
   if (s.premultiplied >= 0) root["premultiplied"] = s.premultiplied == 1;
+  if (s.fits != Fits::unknown) root["fits"] = fits_name(s.fits);
   if (is_static) root["camera"] = camera_object(s.cameras.front());
   root["smplx"] = "smplx/params.npz";
   if (s.with_truth) root["smplx_true"] = "smplx/params_true.npz";
@@ -504,6 +522,7 @@ void write_dataset(const Dataset& ds, const std::string& dir) {
   w.set_premultiplied(ds.premultiplied);
   if (ds.source_crop[2] > 0)
     w.set_source_crop(ds.source_crop[0], ds.source_crop[1], ds.source_crop[2], ds.source_crop[3]);
+  w.set_fits(ds.fits);
   if (!ds.params_true.empty() && ds.params_true.size() != ds.frames.size())
     fail(dir, std::to_string(ds.params_true.size()) + " true parameter sets for " + std::to_string(ds.frames.size()) +
                   " frames");

@@ -21,6 +21,9 @@
 //                     (u, v) is pixel (u - x0, v - y0) here, and cx, cy are shifted alike
 //    "premultiplied": true | false,   (optional) images composited on black with the soft
 //                     mask (rgb = mask x colour); absent: not known (older files)
+//    "fits": "exact" | "estimated",   (optional) the SMPL-X fits are the true parameters (or
+//                     registered to 3D scans) or estimated from the images, off by a few
+//                     degrees and centimetres; absent: not known (older files), trained as exact
 //    "camera": {"K": [[fx,0,cx],[0,fy,cy],[0,0,1]], "world_to_camera": 4x4, "near": n, "far": f},
 //    "smplx": "smplx/params.npz", "smplx_true": "smplx/params_true.npz",   (the latter optional)
 //    "frames": [{"image": "images/000000.png", "mask": "masks/000000.png",
@@ -54,6 +57,12 @@ enum class Split { train, test };
 const char* split_name(Split s);
 Split parse_split(const std::string& s, const std::string& where);  // "train" | "test"
 
+// "fits" of dataset.json: how close the SMPL-X fits are to the person in the images.
+// `haha train` picks the settings for estimated fits by it (train/config.h, key `fits`).
+enum class Fits { unknown, exact, estimated };
+const char* fits_name(Fits f);  // "" (unknown), "exact", "estimated"
+Fits parse_fits(const std::string& s, const std::string& where);  // "exact" | "estimated"
+
 struct DatasetFrame {
   Split split = Split::train;
   Camera camera;              // width/height equal the dataset's
@@ -75,6 +84,7 @@ struct Dataset {
   int premultiplied = -1;
   // "source_crop" of dataset.json: x0, y0, w, h in the source's pixels; w = 0: not given.
   std::array<int, 4> source_crop{};
+  Fits fits = Fits::unknown;  // "fits" of dataset.json
   std::vector<DatasetFrame> frames;
   std::vector<SmplxParams> params_true;  // empty, or one per frame
 
@@ -117,6 +127,8 @@ class DatasetWriter {
   void set_premultiplied(int flag);
   // "source_crop" of dataset.json (Dataset::source_crop): x0, y0 >= 0, w x h the dataset's size.
   void set_source_crop(int x0, int y0, int w, int h);
+  // "fits" of dataset.json (Dataset::fits); unknown (the default) writes nothing.
+  void set_fits(Fits fits);
   // Writes the npz files and dataset.json and moves the directory into place.
   void finish();
   int num_frames() const;

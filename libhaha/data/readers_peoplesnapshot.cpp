@@ -62,6 +62,7 @@ Dataset read_peoplesnapshot(const PeopleSnapshotOptions& opt) {
   ds.fps = opt.fps;
   ds.gender = opt.gender.empty() ? "neutral" : opt.gender;
   ds.premultiplied = 0;  // camera frames with their own background
+  ds.fits = Fits::estimated;  // SMPL fits to the monocular video, then fitted again to SMPL-X here
   ds.source = "PeopleSnapshot (InstantAvatar preprocessing): " + opt.dir + " train " + opt.train.str() + " test " +
               opt.test.str();
   const Camera cam = tr.apply(src_cam);

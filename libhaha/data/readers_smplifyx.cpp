@@ -112,6 +112,7 @@ Dataset read_smplifyx(const SmplifyxOptions& opt) {
   ds.fps = opt.fps;
   ds.gender = opt.gender.empty() ? "neutral" : opt.gender;
   ds.premultiplied = 0;  // camera frames with their own background
+  ds.fits = Fits::estimated;  // SMPLify-X optimises against 2D keypoints of each image
   ds.source = "SMPLify-X fits: " + opt.dir + " train " + opt.train.str() + " test " + opt.test.str();
   std::vector<std::pair<std::string, std::string>> files;
   PixelTransform tr;

@@ -82,6 +82,8 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
   DatasetWriter writer(stage.string(), opt.size, opt.size, 30.0, "neutral",
                        std::string(src) + (opt.still_arms ? ", arms still" : "") + "; body: " + (body.source.empty() ? std::string("?") : body.source));
   writer.set_premultiplied(1);  // rendered on black, box-filtered coverage as the mask
+  // Noisy fits stand in for estimated ones: `haha train` then picks the settings for them.
+  writer.set_fits(opt.fit_noise.pose > 0 || opt.fit_noise.transl > 0 ? Fits::estimated : Fits::exact);
 
   const std::vector<int> sheet_train = spread(opt.train_frames, opt.sheet_train);
   const std::vector<int> sheet_test = spread(opt.test_frames, opt.sheet_test);

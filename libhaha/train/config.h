@@ -107,6 +107,7 @@ struct TrainConfig {
   double face_scale_divisor = 0.05;
   double scale_max = 0.1;        // scale activation: s = scale_max * sigmoid(logit)
   std::string premultiplied = "auto";  // images already composited on black: auto (dataset.json's flag)|true|false
+  std::string fits = "auto";           // SMPL-X fits: auto (dataset.json's flag)|exact|estimated (make_run_config)
   int checkpoint_every = 500;    // steps (plus every stage end)
   int log_every = 50;            // progress lines
   bool random_background = true; // stages 1 and 3
@@ -119,6 +120,7 @@ struct TrainConfig {
   bool use_sobel = true, use_opacity_reg = true, use_dice = true;
   // Test-time pose optimisation defaults for `haha eval` (saved with the run).
   int eval_tto_steps = 100;
+  bool eval_antialias = false;   // antialiased mesh silhouette (haha eval --antialias / --no-antialias win)
   double eval_lr_pose = 3e-3, eval_lr_pose_fine = 3e-4;
   double max_cache_mb = 2048;    // per-frame caches of stages 2 and 3 (posed mesh rasters)
   int nan_patience = 20;         // consecutive skipped (non-finite) steps before giving up
@@ -160,6 +162,29 @@ void validate_config(const TrainConfig& c);
 // Whether the images count as composited on black with their soft masks under the config's
 // `premultiplied` setting: "true" / "false", or for "auto" the data's own flag.
 bool resolve_premultiplied(const std::string& setting, bool data_flag);
+
+// The settings for estimated (imperfect) SMPL-X fits on top of `preset`, as key=value
+// strings: the pose pre-fit to the masks, ten times the preset's stage-1 pose rate, and
+// `haha eval` with 100 steps of test-time pose optimisation on the antialiased silhouette.
+// Measured at the tiny preset (docs/results.md "Imperfect fits": 0.05 rad / 2 cm of fit noise
+// cost 5.5 dB with the preset's settings, 0.9 dB with these); the paper preset's are the same
+// rule (10 x 2e-4) and unmeasured. Throws haha::Error for an unknown preset.
+std::vector<std::string> estimated_fit_settings(const std::string& preset);
+
+// Whether a run trains with the settings for estimated fits under the config's `fits`:
+// "exact" / "estimated", or for "auto" the dataset's flag (`data_fits`: "exact",
+// "estimated", or "" where the dataset does not say, which counts as exact: older datasets
+// train as they did). Throws haha::Error "<where>: fits: ..." for any other setting.
+bool resolve_estimated_fits(const std::string& setting, const std::string& data_fits,
+                            const std::string& where = "config");
+
+// The config of a new run: the preset, the user's key=value overrides, and where the fits
+// resolve to estimated, the preset's estimated_fit_settings() with the user's overrides
+// applied again over them (the user always wins); `fits` holds the resolved "exact" or
+// "estimated", so RUN/config.json says what was trained. Validated (validate_config).
+// `summary` (optional) gets one line saying what was picked and why.
+TrainConfig make_run_config(const std::string& preset, const std::vector<std::string>& overrides,
+                            const std::string& data_fits, std::string* summary = nullptr);
 
 // (key, value) pairs of every entry, in entries() order.
 std::vector<std::pair<std::string, std::string>> config_to_pairs(const TrainConfig& c);

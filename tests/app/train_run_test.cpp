@@ -3,6 +3,7 @@
 // the uninterrupted result, bad frames reported before any work).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -27,11 +28,12 @@ class TrainRunTest : public testutil::TempDirTest {
  protected:
   // A small dataset on disk rendered from the test scene: 6 train + 2 test frames, 48 px,
   // images on black (premultiplied), with the body model beside it.
-  std::string make_dataset() {
-    const std::string dir = path("ds");
+  std::string make_dataset(Fits fits = Fits::unknown, const std::string& name = "ds") {
+    const std::string dir = path(name);
     const Avatar truth = test::scene_truth();
     const std::vector<TrainFrame> f = test::scene_frames(truth, 8, 48);
     DatasetWriter w(dir, 48, 48, 30.0, "neutral", "haha synth: test scene");
+    w.set_fits(fits);
     for (size_t i = 0; i < f.size(); ++i) {
       DatasetFrame df;
       df.split = i < 6 ? Split::train : Split::test;
@@ -233,6 +235,101 @@ TEST_F(TrainRunTest, EvalWritesItsReportIntoOutAndLeavesTheRunsOwn) {
   testutil::write_text(path("a_file"), "x");
   e.out_dir = path("a_file");
   expect_error([&] { run_eval(e); }, {path("a_file"), "not a folder"});
+}
+
+TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePreset) {
+  TrainConfig preset = make_preset("tiny");
+  apply_overrides(preset, options("", "").overrides);
+  for (Fits fits : {Fits::estimated, Fits::exact, Fits::unknown}) {
+    const std::string name = fits == Fits::unknown ? "unknown" : fits_name(fits);
+    SCOPED_TRACE(name);
+    const std::string data = make_dataset(fits, "ds_" + name);
+    TrainRunOptions o = options(data, path("run_" + name));
+    o.stop_after = 0;  // the config is saved before the first step
+    log_.clear();
+    run_training(o);
+    const TrainConfig saved = read_run_info(RunDir(path("run_" + name))).config;
+    if (fits == Fits::estimated) {
+      EXPECT_EQ(saved.fits, "estimated");
+      EXPECT_EQ(saved.s0.steps, 40);
+      EXPECT_DOUBLE_EQ(saved.s1.lr_pose, 0.005);
+      EXPECT_EQ(saved.eval_tto_steps, 100);
+      EXPECT_TRUE(saved.eval_antialias);
+      EXPECT_EQ(saved.s1.steps, 6);  // the user's keys stay
+      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 eval.tto_steps=100 "
+                          "eval.antialias=true (override any with key=value"),
+                std::string::npos)
+          << log_;
+      EXPECT_NE(log_.find("pose pre-fit to the masks: 6 frames x 40 steps"), std::string::npos) << log_;
+    } else {
+      // Exact, or a dataset.json without the flag (older files): the preset as before.
+      EXPECT_EQ(saved.fits, "exact");
+      TrainConfig c = saved;
+      c.fits = preset.fits;
+      EXPECT_EQ(config_to_pairs(c), config_to_pairs(preset));
+      EXPECT_NE(log_.find(fits == Fits::exact ? "fits: exact (dataset.json): the preset's settings"
+                                              : "fits: exact (dataset.json does not say): the preset's settings"),
+                std::string::npos)
+          << log_;
+    }
+  }
+  // The user wins over the settings; fits=exact keeps the preset on estimated data.
+  const std::string data = path("ds_estimated");
+  TrainRunOptions o = options(data, path("run_mine"));
+  o.stop_after = 0;
+  o.overrides.push_back("s0.steps=0");
+  run_training(o);
+  const TrainConfig mine = read_run_info(RunDir(path("run_mine"))).config;
+  EXPECT_EQ(mine.s0.steps, 0);
+  EXPECT_DOUBLE_EQ(mine.s1.lr_pose, 0.005);
+  o = options(data, path("run_told_exact"));
+  o.stop_after = 0;
+  o.overrides.push_back("fits=exact");
+  run_training(o);
+  TrainConfig exact = read_run_info(RunDir(path("run_told_exact"))).config;
+  EXPECT_EQ(exact.fits, "exact");
+  exact.fits = preset.fits;
+  EXPECT_EQ(config_to_pairs(exact), config_to_pairs(preset));
+  // A bad value: one line, before anything is read or written.
+  o = options(data, path("run_bad"));
+  o.overrides.push_back("fits=guessed");
+  expect_error([&] { run_training(o); }, {"fits: must be auto, exact or estimated, got 'guessed'"});
+  EXPECT_FALSE(fs::exists(path("run_bad")));
+}
+
+TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
+  TrainRunOptions o = options(make_dataset(Fits::estimated), path("run"));
+  o.overrides.push_back("s0.steps=2");  // the pre-fit's length does not matter here
+  ASSERT_TRUE(run_training(o).finished);
+  EvalRunOptions e;
+  e.run_dir = path("run");
+  e.tto_steps = 0;
+  e.frames = 1;
+  e.print_table = false;
+  e.sheet_frames = 1;
+  EXPECT_TRUE(run_eval(e).antialias);  // the run's eval.antialias=true (estimated fits)
+  e.antialias = 0;                     // --no-antialias
+  EXPECT_FALSE(run_eval(e).antialias);
+  e.tto_steps = -1;  // the run's: 100 steps; one frame, and the answer is in the report
+  e.antialias = -1;
+  e.out_dir = path("eval_default");
+  const EvalReport r = run_eval(e);
+  EXPECT_EQ(r.tto_steps, 100);
+  EXPECT_TRUE(r.antialias);
+  // The report's switches say why: the fits, and what they brought.
+  for (const char* sw : {"fits=estimated", "s0.steps=2", "s1.lr.pose=0.005", "eval.tto_steps=100", "eval.antialias=true"})
+    EXPECT_NE(std::find(r.switches.begin(), r.switches.end(), sw), r.switches.end()) << sw;
+
+  // An exact run: off unless --antialias, and "fits=exact" is no switch.
+  ASSERT_TRUE(run_training(options(make_dataset(Fits::exact, "ds_exact"), path("run_exact"))).finished);
+  e.run_dir = path("run_exact");
+  e.out_dir.clear();
+  e.tto_steps = 0;
+  const EvalReport x = run_eval(e);
+  EXPECT_FALSE(x.antialias);
+  for (const std::string& sw : x.switches) EXPECT_EQ(sw.rfind("fits=", 0), std::string::npos) << sw;
+  e.antialias = 1;  // --antialias
+  EXPECT_TRUE(run_eval(e).antialias);
 }
 
 TEST_F(TrainRunTest, BadFramesAreReportedBeforeTraining) {

@@ -49,6 +49,7 @@ void expect_same_dataset(const Dataset& a, const Dataset& b) {
   EXPECT_EQ(a.gender, b.gender);
   EXPECT_EQ(a.source, b.source);
   EXPECT_EQ(a.premultiplied, b.premultiplied);
+  EXPECT_EQ(a.fits, b.fits);
   ASSERT_EQ(a.frames.size(), b.frames.size());
   for (size_t i = 0; i < a.frames.size(); ++i) {
     const DatasetFrame &fa = a.frames[i], &fb = b.frames[i];
@@ -116,6 +117,22 @@ TEST_F(DatasetTest, PremultipliedFlagRoundTripsAndIsAbsentWhenUnknown) {
     EXPECT_EQ(read_dataset(d).premultiplied, flag);
     // Unknown writes nothing: files stay as older builds wrote (and read) them.
     EXPECT_EQ(read_text(d + "/dataset.json").find("premultiplied") == std::string::npos, flag == -1);
+  }
+}
+
+TEST_F(DatasetTest, FitsFlagRoundTripsAndIsAbsentWhenUnknown) {
+  for (Fits fits : {Fits::unknown, Fits::exact, Fits::estimated}) {
+    Dataset ds = small_dataset(2);
+    ds.fits = fits;
+    const std::string d = path(std::string("ds_") + (fits == Fits::unknown ? "unknown" : fits_name(fits)));
+    write_dataset(ds, d);
+    EXPECT_EQ(read_dataset(d).fits, fits);
+    // Unknown writes nothing: files stay as older builds wrote (and read) them.
+    const std::string json = read_text(d + "/dataset.json");
+    EXPECT_EQ(json.find("\"fits\"") == std::string::npos, fits == Fits::unknown);
+    if (fits != Fits::unknown) {
+      EXPECT_NE(json.find(std::string("\"fits\": \"") + fits_name(fits) + "\""), std::string::npos);
+    }
   }
 }
 
@@ -257,6 +274,8 @@ TEST_F(DatasetTest, DatasetJsonProblemsNameTheFileAndKey) {
   with("\"gender\": \"female\"", "\"gender\": \"robot\"", {json, "gender", "robot"});
   with("\"fps\": 25", "\"fps\": -1", {json, "fps"});
   with("\"gender\": \"female\"", "\"gender\": \"female\", \"premultiplied\": \"yes\"", {json, "premultiplied", "true or false"});
+  with("\"gender\": \"female\"", "\"gender\": \"female\", \"fits\": \"guessed\"", {json, "fits", "guessed", "exact"});
+  with("\"gender\": \"female\"", "\"gender\": \"female\", \"fits\": true", {json, "fits", "estimated"});
   with("\"format\"", "\"formatt\"", {json, "formatt", "unknown"});
   with("\"camera\": {", "\"kamera\": {", {json, "kamera", "unknown"});
   with("\"smplx\": \"smplx/params.npz\"", "\"smplx\": \"smplx/nope.npz\"", {"smplx/nope.npz", "missing"});

@@ -89,6 +89,7 @@ TEST_F(XHumansTest, ReadsFramesCamerasFitsAndDepthMasksWithSquareCrop) {
   o.train_takes = {make_take("Take1", 3)};
   Dataset ds = read_xhumans(o);
   ASSERT_EQ(ds.frames.size(), 3u);
+  EXPECT_EQ(ds.fits, Fits::exact);  // registered to the scans the frames are rendered from
   EXPECT_EQ(ds.width, 8);
   EXPECT_EQ(ds.height, 8);  // centre square of 8 x 12: rows 2..9
   for (int i = 0; i < 3; ++i) {
@@ -170,6 +171,7 @@ TEST_F(XHumansTest, TestTakeSubsamplingAndConversionToNativeFormat) {
   write_dataset(ds, path("out"));
   Dataset back = read_dataset(path("out"));
   ASSERT_EQ(back.frames.size(), 4u);
+  EXPECT_EQ(back.fits, Fits::exact);
   EXPECT_FALSE(back.is_static_camera());
   ds.load_all();
   for (size_t i = 0; i < 4; ++i) {
@@ -339,6 +341,7 @@ class PeopleSnapshotTest : public TempDirTest {
 TEST_F(PeopleSnapshotTest, SmplBodyMappedOntoSmplxHandsAtRest) {
   Dataset ds = read_peoplesnapshot(opts(make()));
   ASSERT_EQ(ds.frames.size(), 5u);
+  EXPECT_EQ(ds.fits, Fits::estimated);  // fitted to the monocular video
   EXPECT_EQ(ds.indices(Split::train), (std::vector<int>{0, 1, 2}));
   EXPECT_EQ(ds.indices(Split::test), (std::vector<int>{3, 4}));
   const int source[5] = {0, 2, 4, 6, 8};
@@ -470,6 +473,7 @@ TEST_F(SmplifyxTest, PcaHandsHandMeanAndCameraKeys) {
   o.flat_hand_mean = false;  // SMPLify-X's default
   Dataset ds = read_smplifyx(o);
   ASSERT_EQ(ds.frames.size(), 3u);
+  EXPECT_EQ(ds.fits, Fits::estimated);  // fitted to each image's keypoints
   EXPECT_EQ(ds.width, W);
   for (int i = 0; i < 3; ++i) {
     const DatasetFrame& f = ds.frames[size_t(i)];

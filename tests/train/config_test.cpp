@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <set>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "train/config.h"
@@ -96,6 +99,7 @@ TEST(TrainConfig, ValidationRejectsOutOfRangeValues) {
   check("s1.opacity=1", "config: s1.opacity: must be in (0, 1)");
   check("s1.knn.k=1", "config: s1.knn.k: must be >= 2 (the set holds the Gaussian itself)");
   check("premultiplied=sometimes", "config: premultiplied: must be auto, true or false");
+  check("fits=roughly", "config: fits: must be auto, exact or estimated, got 'roughly'");
   check("s2.texture_size=2", "config: s2.texture_size: must be in [4, 8192]");
   // Checked before training, not when the finished avatar is saved.
   check("s3.depth_margin=1.5", "config: s3.depth_margin: must be <= 1 (metres; the avatar format's limit)");
@@ -111,6 +115,71 @@ TEST(TrainConfig, PairsRoundTripExactly) {
   EXPECT_EQ(b.s1.lr_offset_init, a.s1.lr_offset_init);  // bit-exact
   std::set<std::string> keys;
   for (const auto& [k, v] : config_to_pairs(a)) EXPECT_TRUE(keys.insert(k).second) << "duplicate key " << k;
+}
+
+TEST(TrainConfig, EstimatedFitSettingsOfEachPreset) {
+  EXPECT_EQ(estimated_fit_settings("tiny"), (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.005",
+                                                                      "eval.tto_steps=100", "eval.antialias=true"}));
+  // Ten times the preset's own pose rate (2e-4 in the paper preset).
+  EXPECT_EQ(estimated_fit_settings("paper"), (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.002",
+                                                                       "eval.tto_steps=100", "eval.antialias=true"}));
+  EXPECT_NE(error_of([] { estimated_fit_settings("huge"); }).find("unknown preset 'huge'"), std::string::npos);
+}
+
+TEST(TrainConfig, FitsResolveFromTheSettingThenTheDataset) {
+  EXPECT_TRUE(resolve_estimated_fits("auto", "estimated"));
+  EXPECT_FALSE(resolve_estimated_fits("auto", "exact"));
+  EXPECT_FALSE(resolve_estimated_fits("auto", ""));  // the dataset does not say: as before
+  EXPECT_FALSE(resolve_estimated_fits("exact", "estimated"));
+  EXPECT_TRUE(resolve_estimated_fits("estimated", ""));
+  EXPECT_EQ(error_of([] { resolve_estimated_fits("maybe", "exact", "override"); }),
+            "override: fits: must be auto, exact or estimated, got 'maybe'");
+}
+
+TEST(TrainConfig, RunConfigAddsTheEstimatedFitSettingsUnderTheUsersOverrides) {
+  const TrainConfig tiny = make_preset("tiny");
+  std::string line;
+  // Estimated fits: the settings on top of the preset, everything else the preset's.
+  const TrainConfig est = make_run_config("tiny", {}, "estimated", &line);
+  EXPECT_EQ(est.s0.steps, 40);
+  EXPECT_DOUBLE_EQ(est.s1.lr_pose, 0.005);
+  EXPECT_EQ(est.eval_tto_steps, 100);
+  EXPECT_TRUE(est.eval_antialias);
+  EXPECT_EQ(est.fits, "estimated");  // saved resolved
+  TrainConfig expect = tiny;
+  apply_overrides(expect, estimated_fit_settings("tiny"));
+  expect.fits = "estimated";
+  EXPECT_EQ(config_to_pairs(est), config_to_pairs(expect));
+  EXPECT_EQ(line,
+            "fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 eval.tto_steps=100 eval.antialias=true "
+            "(override any with key=value; fits=exact for the preset's own)");
+
+  // The user's keys win over the settings, before and after them in the list.
+  const TrainConfig mine = make_run_config("tiny", {"s0.steps=10", "eval.antialias=false", "s1.steps=7"}, "estimated", &line);
+  EXPECT_EQ(mine.s0.steps, 10);
+  EXPECT_FALSE(mine.eval_antialias);
+  EXPECT_EQ(mine.s1.steps, 7);
+  EXPECT_DOUBLE_EQ(mine.s1.lr_pose, 0.005);
+  EXPECT_NE(line.find("s0.steps=10 (yours)"), std::string::npos) << line;
+  EXPECT_NE(line.find("eval.antialias=false (yours)"), std::string::npos) << line;
+
+  // fits=exact keeps the preset whatever the dataset says; so do exact and unflagged data.
+  for (const auto& [kv, data] : std::vector<std::pair<std::string, std::string>>{
+           {"fits=exact", "estimated"}, {"fits=auto", "exact"}, {"fits=auto", ""}}) {
+    TrainConfig c = make_run_config("tiny", {kv}, data, &line);
+    EXPECT_EQ(c.fits, "exact") << kv << " " << data;
+    c.fits = tiny.fits;
+    EXPECT_EQ(config_to_pairs(c), config_to_pairs(tiny)) << kv << " " << data;
+    EXPECT_EQ(line.rfind("fits: exact (", 0), 0u) << line;
+  }
+  EXPECT_EQ(line, "fits: exact (dataset.json does not say): the preset's settings (fits=estimated for those of "
+                  "estimated fits)");
+  // fits=estimated on data that says exact (or nothing).
+  EXPECT_TRUE(make_run_config("paper", {"fits=estimated"}, "exact", &line).eval_antialias);
+  EXPECT_EQ(line.rfind("fits: estimated (fits=estimated): s0.steps=40 s1.lr.pose=0.002 ", 0), 0u) << line;
+  // A bad value: one line naming the key, whatever the data.
+  EXPECT_EQ(error_of([] { make_run_config("tiny", {"fits=guess"}, "estimated"); }),
+            "override: fits: must be auto, exact or estimated, got 'guess'");
 }
 
 }  // namespace
