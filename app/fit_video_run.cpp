@@ -273,6 +273,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     DatasetWriter writer(stage.string(), box.w, box.h, s.fps, "neutral", source);
     // Matted frames are alpha x colour on black; else camera frames with the tool's masks.
     writer.set_premultiplied(s.matting_used ? 1 : 0);
+    writer.set_fits(Fits::estimated);  // fitted to keypoints: haha train picks the settings for estimated fits
     if (s.cropped) writer.set_source_crop(box.x0, box.y0, box.w, box.h);
     double band = 0, band_known = 0, band_filled = 0;  // the edge band's share of the frames, where the plate
                                                        // knew it, where that was a filled hole

@@ -596,6 +596,7 @@ TEST_F(FitVideoCropMattingTest, StaticCameraCropsAndMatsTheDataset) {
   EXPECT_EQ(ds.width % 2 + ds.height % 2, 0);
   EXPECT_EQ(ds.source_crop, (std::array<int, 4>{box.x0, box.y0, box.w, box.h}));
   EXPECT_EQ(ds.premultiplied, 1);
+  EXPECT_EQ(ds.fits, Fits::estimated);  // so haha train picks the settings for estimated fits
   EXPECT_FLOAT_EQ(ds.frames[0].camera.cx, kVw / 2.0f - box.x0);
   EXPECT_FLOAT_EQ(ds.frames[0].camera.cy, kVh / 2.0f - box.y0);
   EXPECT_EQ(ds.frames[0].camera.fx, 100);
