@@ -1,30 +1,19 @@
-// The synthetic subject (`haha synth`) and contact sheets: motions (full turn, novel test
-// poses, moving fingers, grounded), fit noise, renders (masks consistent with images,
-// anti-aliased, full body in frame, Y up on screen, garments outside the body
-// silhouette), the dataset on disk (reads back, deterministic, atomic), bad options.
-// Runs on the low-resolution procedural body at small sizes.
+// The synthetic subject: garments and hair (well formed, skinned, outside the body),
+// motions (full turn, novel test poses, moving fingers, grounded), fit noise, renders
+// (masks consistent with images, anti-aliased, full body in frame, Y up on screen,
+// garments outside the body silhouette). The dataset on disk is tested in
+// tests/data/synth_dataset_test.cpp. Runs on the low-resolution procedural body at small sizes.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <map>
-#include <stdexcept>
 #include <string>
 
 #include "body/lbs.h"
 #include "body/procedural_body.h"
 #include "body/rotation.h"
 #include "core/error.h"
-#include "core/parallel.h"
-#include "data/contact_sheet.h"
-#include "data/dataset.h"
-#include "data/synth_dataset.h"
-#include "io/image.h"
-#include "io/npy.h"
 #include "support/expect_error.h"
 #include "support/low_body.h"
 #include "support/synth_mesh_checks.h"
@@ -32,8 +21,6 @@
 
 namespace haha {
 namespace {
-
-namespace fs = std::filesystem;
 
 using test::low_body;
 
@@ -48,124 +35,8 @@ const SynthSubject& low_subject() {
 
 using haha::test::expect_error;
 
-class TempDir : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("haha_synth_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  fs::path dir_;
-};
-
-SynthOptions small_options() {
-  SynthOptions o;
-  o.size = 48;
-  o.train_frames = 6;
-  o.test_frames = 3;
-  o.supersample = 2;
-  o.texture_size = 256;
-  return o;
-}
-
 Mat3<double> joint_rotation(const SmplxParams& p, int j) {
   return rodrigues(Vec3<double>(p.pose[3 * j], p.pose[3 * j + 1], p.pose[3 * j + 2]));
-}
-
-// ---------------------------------------------------------------------------------------
-// Contact sheet and font
-
-TEST(ContactSheet, FontHasDistinctGlyphsAndMapsUnknownToQuestionMark) {
-  const std::string chars = "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ.,:-_/()=+%#!?";
-  std::map<std::string, char> seen;
-  for (char c : chars) {
-    std::string bits;
-    int set = 0;
-    for (int y = 0; y < kFontHeight; ++y)
-      for (int x = 0; x < kFontWidth; ++x) {
-        bits += font_pixel(c, x, y) ? '1' : '0';
-        set += font_pixel(c, x, y);
-      }
-    EXPECT_GT(set, 0) << c;
-    EXPECT_TRUE(seen.emplace(bits, c).second) << c << " looks like " << seen[bits];
-  }
-  for (int y = 0; y < kFontHeight; ++y)
-    for (int x = 0; x < kFontWidth; ++x) {
-      EXPECT_EQ(font_pixel('a', x, y), font_pixel('A', x, y));
-      EXPECT_EQ(font_pixel('~', x, y), font_pixel('?', x, y));
-      EXPECT_FALSE(font_pixel(' ', x, y));
-    }
-  EXPECT_FALSE(font_pixel('A', -1, 0));
-  EXPECT_FALSE(font_pixel('A', 0, kFontHeight));
-  EXPECT_EQ(text_width("", 1), 0);
-  EXPECT_EQ(text_width("AB", 1), 11);
-  EXPECT_EQ(text_width("AB", 2), 22);
-}
-
-TEST(ContactSheet, DrawTextStaysInsideItsBoxAndClipsAtTheBorder) {
-  Image img(40, 20, 3, 0.0f);
-  const float white[3] = {1, 1, 1};
-  draw_text(img, 3, 4, "H1", white, 1);
-  int inside = 0;
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x)
-      if (img.at(x, y, 0) > 0) {
-        EXPECT_TRUE(x >= 3 && x < 3 + text_width("H1") && y >= 4 && y < 4 + kFontHeight) << x << "," << y;
-        ++inside;
-      }
-  EXPECT_GT(inside, 10);
-  // Partly outside: no crash, only in-image pixels drawn.
-  draw_text(img, -4, -3, "WWW", white, 3);
-  draw_text(img, 38, 18, "WWW", white, 3);
-  Image grey(8, 8, 1, 0.0f);
-  draw_text(grey, 0, 0, "#", white, 1);
-  EXPECT_EQ(grey.at(1, 0, 0), 1.0f);
-}
-
-TEST(ContactSheet, GridLayoutRowsLabelsAndShrinking) {
-  std::vector<ContactSheetTile> tiles;
-  for (int i = 0; i < 5; ++i) {
-    ContactSheetTile t;
-    t.image = Image(20, 10, 3, 0.5f);
-    t.label = "T" + std::to_string(i);
-    tiles.push_back(t);
-  }
-  tiles[3].new_row = true;  // rows: [0 1 2] [3 4]
-  ContactSheetOptions o;
-  o.columns = 4;
-  o.padding = 2;
-  const Image s = make_contact_sheet(tiles, o);
-  const int label_h = kFontHeight + 3;
-  EXPECT_EQ(s.width, 2 + 3 * (20 + 2));
-  EXPECT_EQ(s.height, 2 + 2 * (10 + label_h + 2));
-  EXPECT_EQ(s.channels, 3);
-  // Tile pixels copied, label text drawn under the first tile.
-  EXPECT_FLOAT_EQ(s.at(2 + 5, 2 + 5, 1), 0.5f);
-  int text = 0;
-  for (int y = 2 + 10; y < 2 + 10 + label_h; ++y)
-    for (int x = 2; x < 22; ++x) text += s.at(x, y, 0) > 0.9f;
-  EXPECT_GT(text, 5);
-  // Shrinking keeps the aspect; grey and RGBA tiles are accepted.
-  tiles.clear();
-  tiles.push_back({Image(200, 100, 1, 1.0f), "", false});
-  tiles.push_back({Image(50, 50, 4, 1.0f), "", false});
-  o.max_tile = 40;
-  const Image s2 = make_contact_sheet(tiles, o);
-  EXPECT_EQ(s2.width, 2 + 2 * (40 + 2));
-  EXPECT_EQ(s2.height, 2 + 40 + 2);
-}
-
-TEST(ContactSheet, BadInputIsAnError) {
-  expect_error([] { make_contact_sheet({}); }, "no tiles");
-  expect_error([] { make_contact_sheet({{Image(), "x", false}}); }, "empty image");
-  expect_error([] { make_contact_sheet({{Image(4, 4, 2), "x", false}}); }, "channels");
-  ContactSheetOptions o;
-  o.columns = 0;
-  expect_error([&] { make_contact_sheet({{Image(4, 4, 3), "x", false}}, o); }, "columns");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -565,158 +436,6 @@ TEST(SynthRender, GarmentsCoverPixelsOutsideTheBodySilhouette) {
   EXPECT_GT(extra(front, kSynthHair), 0);
   EXPECT_GT(extra(side, kSynthPonytail), 0);
   EXPECT_GT(extra(side, kSynthHair), 0);
-}
-
-// ---------------------------------------------------------------------------------------
-// The dataset
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
-
-class SynthDataset : public TempDir {};
-
-TEST_F(SynthDataset, ReadsBackWithMatchingCountsAndConsistentMasks) {
-  SynthOptions o = small_options();
-  o.fit_noise = {0.02, 0.02};
-  const SynthSummary sum = write_synth_dataset(path("ds"), low_body(), o, true);
-  EXPECT_GE(sum.min_pose_gap, kSynthMinPoseGap);
-  const Dataset ds = read_dataset(path("ds"));
-  ASSERT_EQ(ds.frames.size(), 9u);
-  EXPECT_EQ(ds.indices(Split::train).size(), 6u);
-  EXPECT_EQ(ds.indices(Split::test).size(), 3u);
-  ASSERT_EQ(ds.params_true.size(), 9u);
-  EXPECT_TRUE(ds.is_static_camera());
-  EXPECT_EQ(ds.premultiplied, 1);  // on black with soft coverage masks, flagged
-  EXPECT_EQ(ds.fits, Fits::estimated);  // noisy fits
-  EXPECT_EQ(ds.width, 48);
-  EXPECT_FLOAT_EQ(ds.frames[0].camera.fx, sum.camera.fx);
-  EXPECT_FLOAT_EQ(ds.frames[0].camera.cx, 24.0f);
-  for (size_t i = 0; i < ds.frames.size(); ++i) {
-    const DatasetFrame& f = ds.frames[i];
-    EXPECT_NE(f.params.pose, ds.params_true[i].pose);  // fits carry the noise
-    EXPECT_NE(f.params.transl, ds.params_true[i].transl);
-    int on = 0;
-    for (int p = 0; p < 48 * 48; ++p) {
-      const float m = f.mask.data[p];
-      on += m > 0;
-      if (m == 0) {
-        for (int c = 0; c < 3; ++c) ASSERT_EQ(f.image.data[3 * p + c], 0.0f) << "frame " << i << " pixel " << p;
-      }
-    }
-    EXPECT_GT(on, 48 * 48 / 50);
-  }
-  for (const char* extra : {"contact_sheet.png", "synth_texture.png", "body_model.npz"})
-    EXPECT_TRUE(fs::exists(dir_ / "ds" / extra)) << extra;
-  const Image sheet = read_image(path("ds/contact_sheet.png"));
-  EXPECT_GT(sheet.width, 6 * 48);
-  // Nothing left beside the output.
-  for (const auto& e : fs::directory_iterator(dir_)) EXPECT_EQ(e.path().filename(), "ds");
-}
-
-TEST_F(SynthDataset, DeterministicForASeed) {
-  const SynthOptions o = small_options();
-  write_synth_dataset(path("a"), low_body(), o, false);
-  EXPECT_EQ(read_dataset(path("a"), LoadPixels::headers).fits, Fits::exact);  // no fit noise
-  // The second run on one thread (frames rendered one by one instead of one per thread).
-  const int threads = num_threads();
-  set_num_threads(1);
-  write_synth_dataset(path("b"), low_body(), o, false);
-  set_num_threads(threads);
-  SynthOptions o2 = o;
-  o2.seed = 9;
-  write_synth_dataset(path("c"), low_body(), o2, false);
-  int files = 0;
-  for (const auto& e : fs::recursive_directory_iterator(dir_ / "a")) {
-    if (!e.is_regular_file()) continue;
-    const fs::path rel = fs::relative(e.path(), dir_ / "a");
-    if (rel.extension() == ".npz") {
-      // Arrays, not bytes: the zip container stores member modification times.
-      const Npz x = Npz::read(e.path().string()), y = Npz::read((dir_ / "b" / rel).string());
-      ASSERT_EQ(x.keys(), y.keys()) << rel;
-      for (const std::string& k : x.keys()) {
-        EXPECT_EQ(x.get(k).shape, y.get(k).shape) << rel << " " << k;
-        EXPECT_EQ(x.get(k).bytes, y.get(k).bytes) << rel << " " << k;
-      }
-    } else {
-      EXPECT_EQ(slurp(e.path()), slurp(dir_ / "b" / rel)) << rel;
-    }
-    ++files;
-  }
-  EXPECT_EQ(files, 9 * 2 + 2 + 1 + 2);  // frames, masks, npz x2, dataset.json, sheet, texture
-  EXPECT_FALSE(fs::exists(dir_ / "a" / "body_model.npz"));
-  EXPECT_NE(slurp(dir_ / "a/images/000001.png"), slurp(dir_ / "c/images/000001.png"));
-}
-
-// The whole subject-1 pipeline (motion, fit noise, camera, files): bytes of dataset.json,
-// the PNGs and the npz arrays, hashed on the code before subject 2 existed.
-TEST_F(SynthDataset, SubjectOneDatasetIsExactlyAsBefore) {
-  SynthOptions o = small_options();
-  o.fit_noise = {0.05, 0.02};
-  write_synth_dataset(path("ds"), low_body(), o, false);
-  std::vector<fs::path> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir_ / "ds"))
-    if (e.is_regular_file()) files.push_back(fs::relative(e.path(), dir_ / "ds"));
-  std::sort(files.begin(), files.end());
-  uint64_t h = 0xCBF29CE484222325ull;
-  for (const fs::path& rel : files) {
-    h = fnv1a(h, rel.string().data(), rel.string().size());
-    if (rel.extension() == ".npz") {
-      const Npz x = Npz::read((dir_ / "ds" / rel).string());
-      for (const std::string& k : x.keys()) h = fnv1a(h, x.get(k).bytes.data(), x.get(k).bytes.size());
-    } else {
-      std::string b = slurp(dir_ / "ds" / rel);
-      // dataset.json's "fits" came later than the hash: the rest is as before.
-      const std::string fits = " \"fits\": \"estimated\",\n";
-      if (rel == "dataset.json") {
-        EXPECT_NE(b.find(fits), std::string::npos);
-        if (b.find(fits) != std::string::npos) b.erase(b.find(fits), fits.size());
-      }
-      h = fnv1a(h, b.data(), b.size());
-    }
-  }
-  EXPECT_EQ(h, 5644435470981913490ull);
-}
-
-TEST_F(SynthDataset, ReplacesADatasetButNothingElse) {
-  const SynthOptions o = small_options();
-  write_synth_dataset(path("ds"), low_body(), o, false);
-  SynthOptions o2 = o;
-  o2.train_frames = 4;
-  write_synth_dataset(path("ds"), low_body(), o2, false);  // a dataset may be replaced
-  EXPECT_EQ(read_dataset(path("ds"), LoadPixels::headers).frames.size(), 7u);
-  fs::create_directories(dir_ / "other");
-  std::ofstream(dir_ / "other" / "keep.txt") << "mine";
-  expect_error([&] { write_synth_dataset(path("other"), low_body(), o, false); }, "refusing to replace");
-  EXPECT_EQ(slurp(dir_ / "other" / "keep.txt"), "mine");
-  for (const auto& e : fs::directory_iterator(dir_)) {
-    const std::string n = e.path().filename().string();
-    EXPECT_TRUE(n == "ds" || n == "other") << n;
-  }
-}
-
-TEST(SynthOptionsTest, BadOptionsAreClearErrors) {
-  auto with = [](auto edit) {
-    SynthOptions o;
-    edit(o);
-    return o;
-  };
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 0; })); }, "--size");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.train_frames = 0; })); }, "--frames");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.test_frames = -1; })); }, "--test-frames");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise.pose = -0.1; })); }, "--fit-noise-pose");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.fit_noise.transl = NAN; })); }, "--fit-noise-transl");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.supersample = 0; })); }, "--supersample");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.texture_size = 3; })); }, "--texture-size");
-  expect_error([&] { validate_synth_options(with([](SynthOptions& o) { o.size = 4096, o.supersample = 4; })); },
-               "exceeds 12288");
-  EXPECT_NO_THROW(validate_synth_options(SynthOptions{}));
-  expect_error([] { synth_body("/nonexistent/dir/model.npz", BodyResolution::low, 0); }, "/nonexistent/dir/model.npz");
-  // write_synth_dataset validates before touching the disk.
-  const std::string out = (fs::temp_directory_path() / ("haha_synth_bad_" + std::to_string(::getpid()))).string();
-  expect_error([&] { write_synth_dataset(out, low_body(), with([](SynthOptions& o) { o.size = 0; }), false); }, "--size");
-  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace
