@@ -1,5 +1,6 @@
 // Image files through OpenImageIO: exact 8-bit round trips, float formats, raw integer
-// depth, clear one-line errors naming the file, atomic writes; area resampling and crops.
+// depth, clear one-line errors naming the file, atomic writes. (Resampling and crops in
+// memory: tests/core/image_test.cpp.)
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -189,46 +190,6 @@ TEST_F(ImageTest, RoundTo8BitEqualsAPngRoundTrip) {
   round_to_8bit(img);
   ASSERT_EQ(back.data.size(), img.data.size());
   for (size_t i = 0; i < values.size(); ++i) ASSERT_EQ(back.data[i], img.data[i]) << "value " << values[i];
-}
-
-TEST(ImageResample, AreaAverageProperties) {
-  const Image img = pattern(12, 8, 3);
-  // Exact 2x downscale = 2x2 block means.
-  const Image half = resize_area(img, 6, 4);
-  for (int y = 0; y < 4; ++y)
-    for (int x = 0; x < 6; ++x)
-      for (int k = 0; k < 3; ++k) {
-        const float m = 0.25f * (img.at(2 * x, 2 * y, k) + img.at(2 * x + 1, 2 * y, k) + img.at(2 * x, 2 * y + 1, k) +
-                                 img.at(2 * x + 1, 2 * y + 1, k));
-        EXPECT_NEAR(half.at(x, y, k), m, 1e-6f);
-      }
-  // Any ratio preserves the mean (each output pixel averages the area it covers).
-  for (auto [w, h] : {std::pair{5, 3}, std::pair{7, 7}, std::pair{12, 8}, std::pair{25, 17}}) {
-    const Image r = resize_area(img, w, h);
-    for (int k = 0; k < 3; ++k) {
-      double a = 0, b = 0;
-      for (int y = 0; y < 8; ++y)
-        for (int x = 0; x < 12; ++x) a += img.at(x, y, k);
-      for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) b += r.at(x, y, k);
-      EXPECT_NEAR(a / (12 * 8), b / (w * h), 1e-5) << w << "x" << h;
-    }
-  }
-  // Same size is the identity; a constant stays constant.
-  EXPECT_EQ(resize_area(img, 12, 8).data, img.data);
-  const Image c = resize_area(Image(9, 5, 1, 0.3f), 4, 3);
-  for (float v : c.data) EXPECT_NEAR(v, 0.3f, 1e-6f);
-}
-
-TEST(ImageResample, CropCopiesTheRectangle) {
-  const Image img = pattern(8, 12, 2);
-  const Image c = crop(img, 1, 2, 5, 7);
-  ASSERT_EQ(c.width, 5);
-  ASSERT_EQ(c.height, 7);
-  for (int y = 0; y < 7; ++y)
-    for (int x = 0; x < 5; ++x)
-      for (int k = 0; k < 2; ++k) EXPECT_EQ(c.at(x, y, k), img.at(x + 1, y + 2, k));
-  EXPECT_THROW(crop(img, 4, 0, 5, 1), Error);
 }
 
 }  // namespace
