@@ -53,7 +53,7 @@ SynthOptions small_options() {
   return o;
 }
 
-// FNV-1a over bytes: the byte-exact check of subject 1 (tests/synth/synth_test.cpp hashes its renders the same way).
+// FNV-1a over bytes: the byte-exact check of subject 1 (tests/synth/synth_subject_test.cpp hashes its renders the same way).
 uint64_t fnv1a(uint64_t h, const void* data, size_t n) {
   const auto* b = static_cast<const unsigned char*>(data);
   for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 0x100000001B3ull;
