@@ -15,6 +15,7 @@
 #include "support/expect_error.h"
 #include "support/low_body.h"
 #include "support/synth_mesh_checks.h"
+#include "support/synth_low_subject.h"
 #include "synth/synth_internal.h"
 
 namespace haha {
@@ -22,14 +23,7 @@ namespace {
 
 using test::low_body;
 
-const SynthSubject& low_subject() {
-  static const SynthSubject s = [] {
-    SynthSubjectOptions o;
-    o.texture_size = 256;
-    return make_synth_subject(low_body(), o);
-  }();
-  return s;
-}
+using test::low_subject;
 
 using haha::test::expect_error;
 
