@@ -256,8 +256,8 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
       EXPECT_EQ(saved.eval_tto_steps, 100);
       EXPECT_TRUE(saved.eval_antialias);
       EXPECT_EQ(saved.s1.steps, 6);  // the user's keys stay
-      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 eval.tto_steps=100 "
-                          "eval.antialias=true (override any with key=value"),
+      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
+                          "s3.depth_margin=0.01 eval.tto_steps=100 eval.antialias=true (override any with key=value"),
                 std::string::npos)
           << log_;
       EXPECT_NE(log_.find("pose pre-fit to the masks: 6 frames x 40 steps"), std::string::npos) << log_;

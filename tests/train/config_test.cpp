@@ -118,11 +118,13 @@ TEST(TrainConfig, PairsRoundTripExactly) {
 }
 
 TEST(TrainConfig, EstimatedFitSettingsOfEachPreset) {
-  EXPECT_EQ(estimated_fit_settings("tiny"), (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.005",
-                                                                      "eval.tto_steps=100", "eval.antialias=true"}));
+  EXPECT_EQ(estimated_fit_settings("tiny"),
+            (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.005", "s3.w.opacity=2e-06", "s3.depth_margin=0.01",
+                                      "eval.tto_steps=100", "eval.antialias=true"}));
   // Ten times the preset's own pose rate (2e-4 in the paper preset).
-  EXPECT_EQ(estimated_fit_settings("paper"), (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.002",
-                                                                       "eval.tto_steps=100", "eval.antialias=true"}));
+  EXPECT_EQ(estimated_fit_settings("paper"),
+            (std::vector<std::string>{"s0.steps=40", "s1.lr.pose=0.002", "s3.w.opacity=2e-06", "s3.depth_margin=0.01",
+                                      "eval.tto_steps=100", "eval.antialias=true"}));
   EXPECT_NE(error_of([] { estimated_fit_settings("huge"); }).find("unknown preset 'huge'"), std::string::npos);
 }
 
@@ -151,7 +153,8 @@ TEST(TrainConfig, RunConfigAddsTheEstimatedFitSettingsUnderTheUsersOverrides) {
   expect.fits = "estimated";
   EXPECT_EQ(config_to_pairs(est), config_to_pairs(expect));
   EXPECT_EQ(line,
-            "fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 eval.tto_steps=100 eval.antialias=true "
+            "fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 s3.w.opacity=2e-06 s3.depth_margin=0.01 "
+            "eval.tto_steps=100 eval.antialias=true "
             "(override any with key=value; fits=exact for the preset's own)");
 
   // The user's keys win over the settings, before and after them in the list.
