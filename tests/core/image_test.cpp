@@ -8,18 +8,13 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "support/image_pattern.h"
 
 namespace haha {
 namespace {
 
 
-Image pattern(int w, int h, int c) {
-  Image img(w, h, c);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int k = 0; k < c; ++k) img.at(x, y, k) = float((x * 37 + y * 11 + k * 101) % 256) / 255.0f;
-  return img;
-}
+using haha::test::pattern;
 
 TEST(ImageResample, AreaAverageProperties) {
   const Image img = pattern(12, 8, 3);

@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "io/image.h"
+#include "support/image_pattern.h"
 #include "support/expect_error.h"
 
 namespace haha {
@@ -39,13 +40,7 @@ class ImageTest : public ::testing::Test {
 
 using haha::test::expect_error;
 
-Image pattern(int w, int h, int c) {
-  Image img(w, h, c);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int k = 0; k < c; ++k) img.at(x, y, k) = float((x * 37 + y * 11 + k * 101) % 256) / 255.0f;
-  return img;
-}
+using haha::test::pattern;
 
 TEST_F(ImageTest, Png8BitRoundTripIsExactForEveryChannelCount) {
   for (int c : {1, 2, 3, 4}) {
