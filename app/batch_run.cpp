@@ -20,7 +20,7 @@
 #include "app/pack_run.h"
 #include "app/run_dir.h"
 #include "app/train_run.h"
-#include "app/video_fit.h"
+#include "fit/fit_video.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"
@@ -310,7 +310,7 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
         data = p.data();
         if (!fs::exists(fs::path(data) / "dataset.json")) {
           enter("fit-video");
-          FitVideoOptions fo;
+          FitVideoRunOptions fo;
           fo.input = s.input_path;
           fo.out = data;
           fo.keypoint_tool = opt.keypoint_tool;
@@ -334,8 +334,8 @@ BatchRunResult run_batch_subject(const BatchRunOptions& opt) {
           }
           const BodyModel body = synth_body(s.model, BodyResolution::full, 0);
           fo.save_body = s.model.empty();
-          const FitVideoSummary fs_ = run_fit_video(fo, body, [&body](const std::vector<VideoFitInputFrame>& frames,
-                                                                      const VideoFitOptions& vo) {
+          const FitVideoSummary fs_ = run_fit_video(fo, body, [&body](const std::vector<FitVideoInputFrame>& frames,
+                                                                      const FitVideoOptions& vo) {
             return fit_video(body, frames, vo);
           });
           char buf[200];

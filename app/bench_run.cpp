@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "app/bench_sweeps.h"
+#include "bench/bench_sweeps.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
 #include "core/error.h"

@@ -1,13 +1,13 @@
-// `haha bench`: speed and size against error on one trained run (app/bench_sweeps.h):
+// `haha bench`: speed and size against error on one trained run (bench/bench_sweeps.h):
 // the stage table with training wall times, the Gaussian budget (stage 3 re-run with
 // several opacity-regulariser weights, and pruning thresholds), packing settings, and
 // render speed against resolution / Gaussian count / threads. Writes OUT/bench.json,
-// OUT/bench.md and OUT/plots/*.png (app/bench_report.h).
+// OUT/bench.md and OUT/plots/*.png (bench/bench_report.h).
 #pragma once
 
 #include <string>
 
-#include "app/bench_report.h"
+#include "bench/bench_report.h"
 
 namespace haha {
 

@@ -28,16 +28,6 @@ std::string f2(double v, const char* fmt) {
 
 }  // namespace
 
-double variant_train_seconds(const EvalReport& r, size_t i) {
-  const auto& s = r.stage_seconds;
-  switch (i) {
-    case 0: return s[1];
-    case 1: return s[0];
-    case 2: return s[0] + s[1];
-    default: return s[0] + s[1] + s[2];
-  }
-}
-
 EvalChecks eval_checks(const EvalReport& r) {
   EvalChecks c;
   if (r.variants.size() < 4) return c;
@@ -78,7 +68,7 @@ std::string eval_report_json(const EvalReport& r) {
     row["ssim"] = num(v.ssim);
     row["lpips"] = v.lpips >= 0 ? num(v.lpips) : ojson(nullptr);
     row["render_ms"] = num(v.render_ms);
-    row["train_seconds"] = num(variant_train_seconds(r, i));
+    row["train_seconds"] = num(variant_train_seconds(r.stage_seconds, i));
     ojson fr = ojson::array();
     for (size_t k = 0; k < v.frames.size(); ++k) {
       const FrameEval& f = v.frames[k];
@@ -135,7 +125,7 @@ std::string eval_report_markdown(const EvalReport& r) {
     const VariantEval& v = r.variants[i];
     s += "| " + v.name + " | " + std::to_string(v.num_gaussians) + " | " + f2(v.storage_bytes / 1e6, "%.3f") + " | " +
          f2(v.psnr, "%.2f") + " | " + f2(v.psnr_outline, "%.2f") + " | " + f2(v.ssim, "%.4f") + " | " + (v.lpips >= 0 ? f2(v.lpips, "%.4f") : "n/a") +
-         " | " + f2(v.render_ms, "%.1f") + " | " + f2(variant_train_seconds(r, i), "%.0f") + " |\n";
+         " | " + f2(v.render_ms, "%.1f") + " | " + f2(variant_train_seconds(r.stage_seconds, i), "%.0f") + " |\n";
   }
   s += "\nStorage: 56 bytes per Gaussian (14 float32) + 4 bytes face index, texture as 8-bit RGB.\n";
   s += "Outline PSNR: within " + std::to_string(kOutlineBandPx) +

@@ -24,10 +24,6 @@ struct EvalReport {
   double eval_seconds = 0;
 };
 
-// Training time attributed to a variant as in the paper's table: mesh only = stage 2,
-// full Gaussians = stage 1, naive merge = stages 1 + 2, HAHA = all three.
-double variant_train_seconds(const EvalReport& r, size_t variant_index);
-
 // The method's claims checked on variants [mesh, full, naive, filtered]:
 // filtered count <= full / 2, PSNR(filtered) >= PSNR(full) - 0.5, >= PSNR(mesh) + 1.
 struct EvalChecks {

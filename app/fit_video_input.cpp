@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <sstream>
 
-#include "app/subprocess.h"
+#include "core/subprocess.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/interrupt.h"

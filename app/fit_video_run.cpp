@@ -8,10 +8,10 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "app/fit_video_crop.h"
-#include "app/fit_video_focal.h"
+#include "fit/fit_video_crop.h"
+#include "fit/fit_video_focal.h"
 #include "app/fit_video_input.h"
-#include "app/fit_video_truth.h"
+#include "fit/fit_video_truth.h"
 #include "app/keypoint_tool.h"
 #include "body/lbs.h"
 #include "core/atomic_file.h"
@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // The fitter's result must describe exactly the frames it was given.
-void check_fit_result(const VideoFitResult& r, int n, int width, int height) {
+void check_fit_result(const FitVideoResult& r, int n, int width, int height) {
   const std::string where = "fit-video: the fit";
   if (int(r.report.size()) != n)
     fail(where, "reported " + std::to_string(r.report.size()) + " frames for " + std::to_string(n) + " given");
@@ -45,7 +45,7 @@ void check_fit_result(const VideoFitResult& r, int n, int width, int height) {
     if (r.report[size_t(i)].dropped) fail(where, "frame " + std::to_string(i) + " is both kept and dropped");
   }
   int kept_in_report = 0;
-  for (const VideoFitFrameReport& f : r.report) kept_in_report += !f.dropped;
+  for (const FitVideoFrameReport& f : r.report) kept_in_report += !f.dropped;
   if (kept_in_report != int(r.kept.size()))
     fail(where, "the report keeps " + std::to_string(kept_in_report) + " frames, the result " + std::to_string(r.kept.size()));
   if (!r.kept.empty() && (r.camera.width != width || r.camera.height != height))
@@ -69,7 +69,7 @@ constexpr double kPlateBytes = 384e6;
 
 // The background plate from the frames given to the fit (kept or not: a frame the person
 // left is the best one), spread evenly when there are more than the budget holds.
-BackgroundPlate make_plate(const InputFrames& in, const std::vector<VideoFitInputFrame>& frames,
+BackgroundPlate make_plate(const InputFrames& in, const std::vector<FitVideoInputFrame>& frames,
                            const MattingOptions& mo) {
   const int n = int(in.paths.size());
   const int most = std::max(8, int(kPlateBytes / (4.0 * in.width * in.height)));
@@ -86,7 +86,7 @@ BackgroundPlate make_plate(const InputFrames& in, const std::vector<VideoFitInpu
 
 }  // namespace
 
-void validate_fit_video_options(const FitVideoOptions& o) {
+void validate_fit_video_options(const FitVideoRunOptions& o) {
   if (o.out.empty()) fail("--out", "give the output dataset directory");
   if (!(o.fps >= 0) || !std::isfinite(o.fps) || o.fps > 1000) fail("--fps", "must be in [0, 1000] (0: every frame)");
   if (!(o.focal_px >= 0) || !std::isfinite(o.focal_px) || o.focal_px > 1e6) fail("--focal", "must be a positive number of pixels");
@@ -112,13 +112,13 @@ void validate_fit_video_options(const FitVideoOptions& o) {
   if (!dataset_dir_replaceable(out)) fail(out, "exists, is not empty and holds no dataset.json: refusing to replace it");
 }
 
-Split fit_video_split(const FitVideoOptions& o, int kept_ordinal, int source_index) {
+Split fit_video_split(const FitVideoRunOptions& o, int kept_ordinal, int source_index) {
   const bool every = o.test_every > 0 && (kept_ordinal + 1) % o.test_every == 0;
   const bool end = o.test_from > 0 && source_index >= o.test_from;
   return every || end ? Split::test : Split::train;
 }
 
-FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit) {
+FitVideoSummary run_fit_video(const FitVideoRunOptions& opt, const BodyModel& body, const SmplxFitter& fit) {
   const auto t0 = std::chrono::steady_clock::now();
   auto say = [&](const std::string& s) {
     if (!opt.progress) return;
@@ -167,13 +167,13 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   const fs::path kp_dir = work / "keypoints";
   run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.keypoints == "fast",
                     opt.progress, (work / "keypoints.log").string());
-  std::vector<VideoFitInputFrame> frames(static_cast<size_t>(n));
+  std::vector<FitVideoInputFrame> frames(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     check_interrupted();
     const std::string stem = fs::path(in.paths[size_t(i)]).stem().string();
     const std::string json = (kp_dir / "keypoints" / (stem + ".json")).string();
     if (!fs::is_regular_file(json, ec)) fail(json, "missing: the keypoint tool wrote no file for " + in.paths[size_t(i)]);
-    VideoFitInputFrame& f = frames[size_t(i)];
+    FitVideoInputFrame& f = frames[size_t(i)];
     f.keypoints = read_keypoints_json(json);
     if (f.keypoints.width != in.width || f.keypoints.height != in.height)
       fail(json, "size " + std::to_string(f.keypoints.width) + "x" + std::to_string(f.keypoints.height) +
@@ -188,17 +188,17 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     }
   }
   int with_person = 0;
-  for (const VideoFitInputFrame& f : frames) with_person += f.keypoints.has_person();
+  for (const FitVideoInputFrame& f : frames) with_person += f.keypoints.has_person();
   say("[2/4] a person in " + std::to_string(with_person) + " of " + std::to_string(n) + " frames");
 
   // (3) the fit
   say("[3/4] SMPL-X fit");
-  VideoFitOptions vo;
+  FitVideoOptions vo;
   vo.focal_px = focal.focal_px;
   vo.weights.smooth_sigma = opt.robust_smoothness;
   vo.progress = opt.progress;
   vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
-  const VideoFitResult r = fit(frames, vo);
+  const FitVideoResult r = fit(frames, vo);
   check_fit_result(r, n, in.width, in.height);
   if (r.kept.empty()) fail(opt.input, "no frame could be fitted (see the reasons above; nothing written)");
   say("[3/4] " + std::to_string(r.kept.size()) + " frames kept, " + std::to_string(n - int(r.kept.size())) + " dropped");
@@ -216,7 +216,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
   s.frames.resize(size_t(n));
   for (int i = 0; i < n; ++i) {
     FitVideoFrameRow& row = s.frames[size_t(i)];
-    const VideoFitFrameReport& rep = r.report[size_t(i)];
+    const FitVideoFrameReport& rep = r.report[size_t(i)];
     row.name = in.names[size_t(i)];
     row.source_index = in.source_index[size_t(i)];
     row.dropped = rep.dropped;
@@ -248,7 +248,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
     Lbs<float> lbs(body);
     std::vector<float> verts(size_t(body.num_verts) * 3), joints(size_t(kNumJoints) * 3);
     for (size_t k = 0; k < r.kept.size(); ++k) {
-      const VideoFitInputFrame& f = frames[size_t(r.kept[k])];
+      const FitVideoInputFrame& f = frames[size_t(r.kept[k])];
       if (!f.mask.empty()) person = box_union(person, mask_box(f.mask));
       if (body.num_verts > 0) {
         lbs.forward(r.params[k], verts.data(), joints.data(), nullptr);
@@ -281,7 +281,7 @@ FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body,
       check_interrupted();
       const int i = r.kept[k];
       FitVideoFrameRow& row = s.frames[size_t(i)];
-      const VideoFitInputFrame& f = frames[size_t(i)];
+      const FitVideoInputFrame& f = frames[size_t(i)];
       if (f.mask.empty())
         fail(in.paths[size_t(i)], "the fit kept this frame but the keypoint tool gave it no mask");
       DatasetFrame df;

@@ -1,10 +1,10 @@
 // `haha fit-video`: a plain monocular video (or a folder of images) to a native dataset
 // that `haha train` takes as it is. Stages: (1) frames: decoded with ffmpeg or read from
 // the folder, --frames applied (app/fit_video_input.h); (2) keypoints and person masks from
-// tools/keypoints (app/keypoint_tool.h); (3) the SMPL-X fit (a VideoFitter, app/video_fit.h);
+// tools/keypoints (app/keypoint_tool.h); (3) the SMPL-X fit (a SmplxFitter, fit/fit_video.h);
 // (4) the dataset of the kept frames, matted against the background plate when the camera
-// is static (data/background_matting.h) and cropped to the person (app/fit_video_crop.h),
-// plus the fit report and contact sheet (app/fit_video_report.h).
+// is static (data/background_matting.h) and cropped to the person (fit/fit_video_crop.h),
+// plus the fit report and contact sheet (fit/fit_video_report.h).
 //
 // OUT after a successful run:
 //   dataset.json, images/, masks/, smplx/params.npz   the dataset (data/dataset.h)
@@ -26,22 +26,22 @@
 #include <string>
 #include <vector>
 
-#include "app/fit_video_report.h"
-#include "app/video_fit.h"
+#include "fit/fit_video_report.h"
+#include "fit/fit_video.h"
 #include "body/body_model.h"
 
 namespace haha {
 
-struct FitVideoOptions {
+struct FitVideoRunOptions {
   std::string input;          // a video file or a folder of .png / .jpg images
   std::string out;            // the dataset directory written
   double fps = 0;             // > 0: video resampled to this rate (ffmpeg fps filter); a folder's rate
                               // (default 30); 0: every decoded frame at the video's own rate
-  double focal_px = 0;        // > 0: focal length in pixels (beats every other source; app/fit_video_focal.h)
-  double focal_35mm = 0;      // > 0: the lens's 35 mm-equivalent focal length, mm (app/fit_video_focal.h)
+  double focal_px = 0;        // > 0: focal length in pixels (beats every other source; fit/fit_video_focal.h)
+  double focal_35mm = 0;      // > 0: the lens's 35 mm-equivalent focal length, mm (fit/fit_video_focal.h)
   double fov_deg = 55;        // horizontal field of view, degrees: given (fov_given) or the last resort's guess
   bool fov_given = false;     // --fov given: it wins over the input's recorded focal length
-  double robust_smoothness = 0;  // VideoFitWeights::smooth_sigma (rad; 0: quadratic)
+  double robust_smoothness = 0;  // FitVideoWeights::smooth_sigma (rad; 0: quadratic)
   std::string frames;         // --frames A:B:S (first, last exclusive, step) after decoding; "" = all
   int test_every = 0;         // every Nth kept frame goes to the "test" split; 0: none
   int test_from = 0;          // > 0: kept frames decoded at or after this frame number go to
@@ -50,9 +50,9 @@ struct FitVideoOptions {
   std::string mask = "pose";  // the tool's mask: pose | selfie
   std::string keypoints = "accurate";  // the tool's models: accurate (BlazePose flip-averaged, limbs
                                        // averaged with MoveNet) | fast (BlazePose once, ~1.5x faster)
-  std::string truth;          // --truth DIR: a dataset with the video's true fits (app/fit_video_truth.h); "" = none
+  std::string truth;          // --truth DIR: a dataset with the video's true fits (fit/fit_video_truth.h); "" = none
   bool save_body = false;     // also write OUT/body_model.npz (the body `haha train` needs by default)
-  bool crop = true;           // crop the dataset to the person over the kept frames (app/fit_video_crop.h);
+  bool crop = true;           // crop the dataset to the person over the kept frames (fit/fit_video_crop.h);
                               // false (--no-crop): the whole frames
   std::string matting = "auto";  // auto: alpha and premultiplied colour against the background plate when
                                  // the camera is static (data/background_matting.h) | off: the tool's masks
@@ -60,18 +60,18 @@ struct FitVideoOptions {
   bool progress = true;       // stage lines on stdout, the tool's progress passed through
 };
 
-using VideoFitter = std::function<VideoFitResult(const std::vector<VideoFitInputFrame>&, const VideoFitOptions&)>;
+using SmplxFitter = std::function<FitVideoResult(const std::vector<FitVideoInputFrame>&, const FitVideoOptions&)>;
 
 // Checks the options (one haha::Error line each: "--fps: ...", "<input>: ...").
-void validate_fit_video_options(const FitVideoOptions& opt);
+void validate_fit_video_options(const FitVideoRunOptions& opt);
 
 // The split of the kept frame number kept_ordinal (0-based, in kept order) decoded as frame
 // source_index: test under --test-every or --test-from, else train.
-Split fit_video_split(const FitVideoOptions& opt, int kept_ordinal, int source_index);
+Split fit_video_split(const FitVideoRunOptions& opt, int kept_ordinal, int source_index);
 
 // The whole run. `body` draws the fitted outline on the contact sheet (and is saved with
 // save_body; with --truth it poses the true fits too when DIR has no body_model.npz); `fit`
 // must have been made for the same body. Throws haha::Error.
-FitVideoSummary run_fit_video(const FitVideoOptions& opt, const BodyModel& body, const VideoFitter& fit);
+FitVideoSummary run_fit_video(const FitVideoRunOptions& opt, const BodyModel& body, const SmplxFitter& fit);
 
 }  // namespace haha

@@ -3,7 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "app/subprocess.h"
+#include "core/subprocess.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 

@@ -6,7 +6,7 @@
 
 #include "core/math.h"
 #include "io/ply_3dgs.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "train/device.h"
 
 namespace haha {

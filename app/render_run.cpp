@@ -50,7 +50,7 @@ void run_render(const RenderRunOptions& o) {
   }
   std::unique_ptr<BodyModel> model;
   if (!o.model.empty()) model = std::make_unique<BodyModel>(load_body_model(o.model));
-  const AvatarRuntime avatar = AvatarRuntime::load(o.avatar, model.get(), o.max_gaussians);
+  const AvatarLoader avatar = AvatarLoader::load(o.avatar, model.get(), o.max_gaussians);
   Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
   PosedAvatar posed;
   {

@@ -98,7 +98,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     log(line);
   }
-  Trainer trainer(cfg, std::move(input), device == Device::cuda ? TrainDevice::cuda : TrainDevice::cpu);
+  Trainer trainer(cfg, std::move(input), device);
   if (device == Device::cuda) log("device: cuda, " + gpu_description());
 
   if (opt.resume) {

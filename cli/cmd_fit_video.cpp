@@ -1,18 +1,18 @@
 // `haha fit-video`: a plain monocular video (or a folder of images) to a native dataset with
-// SMPL-X fits (app/fit_video_run.h: frames, keypoint tool, the fit of app/video_fit.h).
+// SMPL-X fits (app/fit_video_run.h: frames, keypoint tool, the fit of fit/fit_video.h).
 #include <cstdio>
 #include <memory>
 #include <string>
 
 #include "app/fit_video_run.h"
-#include "app/video_fit.h"
+#include "fit/fit_video.h"
 #include "command.h"
 #include "core/interrupt.h"
 #include "data/synth_dataset.h"
 
 HAHA_COMMAND(fit_video) {
   struct Opts {
-    haha::FitVideoOptions o;
+    haha::FitVideoRunOptions o;
     std::string body;
     bool no_crop = false;
   };
@@ -67,8 +67,8 @@ HAHA_COMMAND(fit_video) {
     const haha::BodyModel body = haha::synth_body(a->body, haha::BodyResolution::full, 0);
     a->o.save_body = a->body.empty();
     const haha::FitVideoSummary s =
-        haha::run_fit_video(a->o, body, [&body](const std::vector<haha::VideoFitInputFrame>& frames,
-                                                const haha::VideoFitOptions& vo) { return haha::fit_video(body, frames, vo); });
+        haha::run_fit_video(a->o, body, [&body](const std::vector<haha::FitVideoInputFrame>& frames,
+                                                const haha::FitVideoOptions& vo) { return haha::fit_video(body, frames, vo); });
     std::printf("%s: %d frames kept (%d train, %d test), %d dropped; keypoint error %.2f px, silhouette IoU %.3f",
                 s.out.c_str(), s.kept, s.train, s.test, s.dropped, s.mean_reprojection_px, s.mean_silhouette_iou);
     if (!s.truth.empty())

@@ -32,14 +32,14 @@ bool same_oriented_faces(const std::vector<int32_t>& a, const std::vector<int32_
 
 }  // namespace
 
-struct AvatarRuntime::State {
+struct AvatarLoader::State {
   Avatar avatar;
   std::unique_ptr<Lbs<float>> lbs;  // points into avatar.body: State never moves (unique_ptr)
   bool shaped = false;              // body has shape directions: apply the avatar's betas
   bool wants_correctives = false;   // the avatar was trained with pose correctives
 };
 
-AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
+AvatarLoader::AvatarLoader(Avatar avatar) : s_(std::make_unique<State>()) {
   validate_avatar(avatar, avatar.body.source.empty() ? "avatar" : avatar.body.source);
   s_->avatar = std::move(avatar);
   const BodyModel& b = s_->avatar.body;
@@ -48,27 +48,27 @@ AvatarRuntime::AvatarRuntime(Avatar avatar) : s_(std::make_unique<State>()) {
   s_->lbs = std::make_unique<Lbs<float>>(b);
 }
 
-AvatarRuntime AvatarRuntime::load(const std::string& path, const BodyModel* model, int max_gaussians) {
+AvatarLoader AvatarLoader::load(const std::string& path, const BodyModel* model, int max_gaussians) {
   UnpackOptions options;
   options.max_gaussians = max_gaussians;
   UnpackedAvatar u = read_avatar_file(path, options);
-  AvatarRuntime rt(std::move(u.avatar));
+  AvatarLoader rt(std::move(u.avatar));
   rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
   if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);
   return rt;
 }
 
-AvatarRuntime::AvatarRuntime(AvatarRuntime&&) noexcept = default;
-AvatarRuntime& AvatarRuntime::operator=(AvatarRuntime&&) noexcept = default;
-AvatarRuntime::~AvatarRuntime() = default;
+AvatarLoader::AvatarLoader(AvatarLoader&&) noexcept = default;
+AvatarLoader& AvatarLoader::operator=(AvatarLoader&&) noexcept = default;
+AvatarLoader::~AvatarLoader() = default;
 
-const Avatar& AvatarRuntime::avatar() const { return s_->avatar; }
-int AvatarRuntime::num_verts() const { return s_->avatar.body.num_verts; }
-int AvatarRuntime::num_gaussians() const { return s_->avatar.gaussians.size(); }
-bool AvatarRuntime::has_pose_correctives() const { return !s_->avatar.body.posedirs.empty(); }
-bool AvatarRuntime::missing_pose_correctives() const { return s_->wants_correctives && !has_pose_correctives(); }
+const Avatar& AvatarLoader::avatar() const { return s_->avatar; }
+int AvatarLoader::num_verts() const { return s_->avatar.body.num_verts; }
+int AvatarLoader::num_gaussians() const { return s_->avatar.gaussians.size(); }
+bool AvatarLoader::has_pose_correctives() const { return !s_->avatar.body.posedirs.empty(); }
+bool AvatarLoader::missing_pose_correctives() const { return s_->wants_correctives && !has_pose_correctives(); }
 
-void AvatarRuntime::set_pose_correctives(const BodyModel& model) {
+void AvatarLoader::set_pose_correctives(const BodyModel& model) {
   BodyModel& b = s_->avatar.body;
   const std::string where = model.source.empty() ? "body model" : model.source;
   // A file's faces may be in the encoder's order, each face's corners rotated: compare
@@ -83,7 +83,7 @@ void AvatarRuntime::set_pose_correctives(const BodyModel& model) {
   s_->lbs = std::make_unique<Lbs<float>>(b);
 }
 
-void AvatarRuntime::repose(const SmplxParams& params, PosedAvatar& out) const {
+void AvatarLoader::repose(const SmplxParams& params, PosedAvatar& out) const {
   const Avatar& a = s_->avatar;
   SmplxParams p;
   p.pose = params.pose;
@@ -107,13 +107,13 @@ void AvatarRuntime::repose(const SmplxParams& params, PosedAvatar& out) const {
   out.opacities = a.gaussians.opacity.data();
 }
 
-void AvatarRuntime::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
+void AvatarLoader::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
                            const AvatarRenderOptions& options) const {
   AvatarRenderScratch scratch;
   render(cam, posed, rgb, options, scratch);
 }
 
-void AvatarRuntime::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
+void AvatarLoader::render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
                            const AvatarRenderOptions& options, AvatarRenderScratch& s) const {
   const Avatar& a = s_->avatar;
   if (posed.num_verts != a.body.num_verts || posed.verts.size() != size_t(posed.num_verts) * 3 ||

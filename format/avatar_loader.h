@@ -1,9 +1,9 @@
-// Runtime for packed avatars: load a .glb, repose it from SMPL-X pose parameters, and
+// The loader of packed avatars: load a .glb, repose it from SMPL-X pose parameters, and
 // render it (textured mesh + face-bound Gaussians, merged as in training) or hand the
 // posed mesh and Gaussians to the caller's own renderer. Links haha_format, haha_io,
 // haha_render and haha_body only (never the trainer).
 //
-//   haha::AvatarRuntime avatar = haha::AvatarRuntime::load("avatar.glb");
+//   haha::AvatarLoader avatar = haha::AvatarLoader::load("avatar.glb");
 //   haha::SmplxParams pose;                 // 165 axis-angle values + transl
 //   pose.pose[3 * 16 + 2] = -1.0f;       // left shoulder (joint 16) down
 //   haha::PosedAvatar posed;
@@ -18,7 +18,7 @@
 
 #include "body/avatar.h"
 #include "body/smplx_params.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/avatar_render.h"
 
 namespace haha {
@@ -31,7 +31,7 @@ struct PosedAvatar {
   std::vector<float> means;   // (N, 3) Gaussian centres, world space
   std::vector<float> quats;   // (N, 4) world rotations (w, x, y, z)
   std::vector<float> scales;  // (N, 3) world standard deviations (linear)
-  const float* colors = nullptr;     // (N, 3) RGB in [0, 1]; pose-independent, owned by the runtime
+  const float* colors = nullptr;     // (N, 3) RGB in [0, 1]; pose-independent, owned by the loader
   const float* opacities = nullptr;  // (N) in [0, 1]; likewise
 };
 
@@ -47,27 +47,27 @@ struct AvatarRenderScratch {
   AvatarRenderBuffers buffers;
 };
 
-class AvatarRuntime {
+class AvatarLoader {
  public:
   // Reads and validates a .glb (avatar_unpack.h); throws haha::Error naming the file.
   // `model` (optional): the body model the avatar was trained on, for its pose correctives
   // when the file does not embed them.
   // `max_gaussians` (> 0): of a file with importance tiers (haha pack --lod), load only
   // the tiers that fit (the first always).
-  static AvatarRuntime load(const std::string& path, const BodyModel* model = nullptr, int max_gaussians = 0);
+  static AvatarLoader load(const std::string& path, const BodyModel* model = nullptr, int max_gaussians = 0);
   // From an in-memory avatar (e.g. straight from the trainer). A body with shape
   // directions is shaped with avatar.betas / avatar.expression; an unpacked (baked) body
   // is used as is, so both repose identically.
-  explicit AvatarRuntime(Avatar avatar);
-  AvatarRuntime(AvatarRuntime&&) noexcept;
-  AvatarRuntime& operator=(AvatarRuntime&&) noexcept;
-  ~AvatarRuntime();
+  explicit AvatarLoader(Avatar avatar);
+  AvatarLoader(AvatarLoader&&) noexcept;
+  AvatarLoader& operator=(AvatarLoader&&) noexcept;
+  ~AvatarLoader();
 
   const Avatar& avatar() const;
   int num_verts() const;
   int num_gaussians() const;
   bool has_pose_correctives() const;
-  // The avatar was trained with pose correctives but this runtime has none (the file did
+  // The avatar was trained with pose correctives but this loader has none (the file did
   // not embed them and set_pose_correctives was not called): reposes then differ from the
   // trainer's under strong poses (measured ~37 dB PSNR on the procedural body).
   bool missing_pose_correctives() const;
@@ -82,7 +82,7 @@ class AvatarRuntime {
   void repose(const SmplxParams& params, PosedAvatar& out) const;
 
   // Renders a posed frame into rgb (H, W, 3), H x W = camera size (OpenCV camera,
-  // render/camera.h) with the trainer's merged render (render/avatar_render.h):
+  // core/camera.h) with the trainer's merged render (render/avatar_render.h):
   // I = C_front + (1 - A) (m M + (1 - m) B), Gaussians behind D + depth_margin hidden.
   void render(const Camera& cam, const PosedAvatar& posed, std::vector<float>& rgb,
               const AvatarRenderOptions& options = {}) const;

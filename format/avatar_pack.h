@@ -82,7 +82,7 @@ struct PackOptions {
   // (for splat-aware viewers). Note: the Khronos validator (2.0.0-dev.3.10) reports its
   // attribute names as errors; see spec.md.
   bool khr_gaussian_splatting = false;
-  // Pose-corrective blend shapes (posedirs) of the body, so the runtime reposes like the
+  // Pose-corrective blend shapes (posedirs) of the body, so the loader reposes like the
   // trainer without the body model. Lossy packs embed them compactly by default; lossless
   // packs embed nothing unless `dense` (float32, exact) is asked for. Bodies without
   // posedirs embed nothing.

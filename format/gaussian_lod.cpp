@@ -64,7 +64,7 @@ LodPlan plan_lod(const Avatar& a, int tiers) {
   LodPlan plan;
   plan.order.resize(size_t(N));
   std::iota(plan.order.begin(), plan.order.end(), 0);
-  const AvatarRuntime full(a);
+  const AvatarLoader full(a);
   PosedAvatar rest;
   full.repose(SmplxParams{}, rest);
   std::vector<double> rank_key(static_cast<size_t>(N));  // opacity x footprint
@@ -96,7 +96,7 @@ LodPlan plan_lod(const Avatar& a, int tiers) {
       plan.psnr.push_back(INFINITY);
       continue;
     }
-    const AvatarRuntime part(subset(a, plan.order, prefix));
+    const AvatarLoader part(subset(a, plan.order, prefix));
     PosedAvatar posed;
     part.repose(SmplxParams{}, posed);
     double se = 0;

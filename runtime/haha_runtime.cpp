@@ -1,4 +1,4 @@
-// The C API (include/haha/haha_runtime.h) over haha::AvatarRuntime (format/avatar_loader.h).
+// The C API (include/haha/haha_runtime.h) over haha::AvatarLoader (format/avatar_loader.h).
 // Every entry point runs inside `guarded`, which turns any exception into a status and the
 // thread's last-error line: no C++ exception crosses the C boundary.
 #include "haha/haha_runtime.h"
@@ -31,7 +31,7 @@ static_assert(HAHA_RUNTIME_VERSION_MAJOR == HAHA_PROJECT_VERSION_MAJOR &&
 static_assert(HAHA_NUM_JOINTS == haha::kNumJoints && HAHA_NUM_POSE_VALUES == haha::kNumPoseValues);
 
 struct haha_avatar {
-  haha::AvatarRuntime rt;
+  haha::AvatarLoader rt;
   bool wants_correctives = false;  // trained with pose correctives (the file says so)
 };
 
@@ -155,9 +155,9 @@ haha_avatar* make_avatar(const uint8_t* data, size_t size, const std::string& na
   haha::UnpackOptions options;
   options.max_gaussians = max_gaussians;
   haha::UnpackedAvatar u = classified(HAHA_ERROR_FORMAT, [&] { return haha::unpack_avatar(data, size, name, options); });
-  // As AvatarRuntime::load: the file says whether it was trained with correctives.
+  // As AvatarLoader::load: the file says whether it was trained with correctives.
   const bool wanted = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
-  haha::AvatarRuntime rt = classified(HAHA_ERROR_FORMAT, [&] { return haha::AvatarRuntime(std::move(u.avatar)); });
+  haha::AvatarLoader rt = classified(HAHA_ERROR_FORMAT, [&] { return haha::AvatarLoader(std::move(u.avatar)); });
   if (body_model_path && !rt.has_pose_correctives()) {
     check_readable(body_model_path);
     const haha::BodyModel model =
@@ -270,7 +270,7 @@ HAHA_API haha_status haha_avatar_get_info(const haha_avatar* avatar, haha_avatar
     info.texture_height = a.texture.height;
     info.has_pose_correctives = avatar->rt.has_pose_correctives() ? 1 : 0;
     // Not rt.missing_pose_correctives(): a runtime built from an Avatar cannot know what
-    // the file said about training (AvatarRuntime::load sets that privately).
+    // the file said about training (AvatarLoader::load sets that privately).
     info.missing_pose_correctives = avatar->wants_correctives && !avatar->rt.has_pose_correctives() ? 1 : 0;
     *out_info = info;
   });

@@ -1,6 +1,6 @@
 // Similarity Procrustes alignment of two point sets (rotation, uniform scale, translation;
 // Umeyama with Horn's quaternion): the body-joint error after per-frame alignment
-// (PA-MPJPE) of the video fit's measurement (app/fit_video_truth.h) and its tests.
+// (PA-MPJPE) of the video fit's measurement (fit/fit_video_truth.h) and its tests.
 #pragma once
 
 #include <vector>

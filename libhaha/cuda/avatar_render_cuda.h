@@ -11,7 +11,7 @@
 #include "cuda/face_frames_cuda.h"
 #include "cuda/gaussian_raster_cuda.h"
 #include "cuda/mesh_raster_cuda.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

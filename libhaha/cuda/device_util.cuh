@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda::detail {
 

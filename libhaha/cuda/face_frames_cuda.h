@@ -10,7 +10,7 @@
 #include <type_traits>
 
 #include "body/face_frames.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

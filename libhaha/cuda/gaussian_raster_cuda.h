@@ -18,10 +18,10 @@
 
 #include <cstdint>
 
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/gaussian_kernels.h"
 #include "render/gaussian_raster.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

@@ -10,7 +10,7 @@
 #include "body/body_model.h"
 #include "body/lbs.h"
 #include "body/lbs_kernels.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

@@ -3,7 +3,7 @@
 #pragma once
 
 #include "render/merge.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

@@ -13,11 +13,11 @@
 
 #include <cstdint>
 
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/mesh_raster.h"
 #include "render/render_mesh.h"
 #include "render/texture.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

@@ -30,7 +30,7 @@
 //                "split": "train" | "test", "source_index": 17,              (optional)
 //                "camera": {...}}, ...]}                       (per frame, when not static)
 // The top-level "camera" applies to every frame without its own. Cameras follow
-// render/camera.h: OpenCV axes, world-to-camera extrinsics, pixel (i, j) covers
+// core/camera.h: OpenCV axes, world-to-camera extrinsics, pixel (i, j) covers
 // [i, i+1) x [j, j+1) so its centre is (i + 0.5, j + 0.5). Intrinsics of sources that put
 // pixel centres at integers (OpenCV, most datasets) are converted by adding 0.5 to cx, cy.
 // Row i of the npz files belongs to frame i of the list. Paths are relative to DIR.
@@ -49,7 +49,7 @@
 
 #include "body/smplx_params.h"
 #include "io/image.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha {
 

@@ -7,7 +7,7 @@
 // resize), so converting long videos does not hold every frame in memory.
 //
 // Source intrinsics put pixel centres at integers (OpenCV); the Dataset's cameras put them
-// at +0.5 (render/camera.h), so cx, cy gain 0.5. Crops subtract the crop origin from
+// at +0.5 (core/camera.h), so cx, cy gain 0.5. Crops subtract the crop origin from
 // cx, cy; resizing by s scales fx, fy, cx, cy by s (exact in the pixel-edge convention).
 #pragma once
 
@@ -65,7 +65,7 @@ Dataset read_xhumans(const XHumansOptions& opt);
 // copied into SMPL-X. Every selected frame's SMPL parameters (io/smpl_model_io.h
 // smpl_params layout: SMPL joints 22/23 in slots 25/40; (N, 63) body poses leave them at
 // rest; the file's betas) go to `fit_smpl` in frame order, which returns their SMPL-X
-// parameters (app/smpl_fit.h does it with the user's SMPL and SMPL-X models). Without
+// parameters (fit/smpl_fit.h does it with the user's SMPL and SMPL-X models). Without
 // `fit_smpl` the reader refuses, naming the missing SMPL model. The val split is not read.
 struct PeopleSnapshotOptions : ConvertOptions {
   std::string dir;

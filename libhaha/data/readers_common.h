@@ -8,7 +8,7 @@
 #include "data/readers.h"
 #include "io/image.h"
 #include "io/npy.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha::readers {
 

@@ -1,11 +1,11 @@
-// cam.json: one pinhole camera (OpenCV conventions, render/camera.h).
+// cam.json: one pinhole camera (OpenCV conventions, core/camera.h).
 //
 //   {"width": W, "height": H,
 //    "K": [[fx, 0, cx], [0, fy, cy], [0, 0, 1]],
 //    "world_to_camera": [[r00, r01, r02, tx], [r10, r11, r12, ty], [r20, r21, r22, tz], [0, 0, 0, 1]],
 //    "near": 0.01, "far": 100}                      (near and far optional: defaults 0.01, 100)
 //
-// K is the project camera's K as is (render/camera.h: pixel centres at +0.5, so a point
+// K is the project camera's K as is (core/camera.h: pixel centres at +0.5, so a point
 // projecting to (u, v) lies in pixel (floor(u), floor(v))). A calibration in OpenCV's own
 // pixel convention (centres at integers) has cx, cy 0.5 smaller: add 0.5 when converting.
 //
@@ -20,7 +20,7 @@
 
 #include <string>
 
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha {
 

@@ -1,5 +1,5 @@
 // Motion files: a sequence of SMPL-X poses with a frame rate, for `haha render --motion`,
-// the runtime and the bench. Two kinds are read:
+// the loader and the bench. Two kinds are read:
 //   - AMASS: SMPL-X `*_stageii.npz` (poses (T, 165) in SMPL-X order: global | body 21 |
 //     jaw | leye | reye | left hand 15 | right hand 15; trans (T, 3); betas; gender;
 //     mocap_frame_rate) or SMPL+H (poses (T, 156) = global | body 21 | left hand 15 | right

@@ -22,7 +22,7 @@
 
 #include "body/avatar.h"
 #include "body/body_model.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/gaussian_raster.h"
 #include "render/render_mesh.h"
 

@@ -10,7 +10,7 @@
 
 #include "core/hd.h"
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/gaussian_kernels.h"
 #include "render/gaussian_raster.h"
 #include "render/sh.h"

@@ -22,7 +22,7 @@
 
 #include "core/hd.h"
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha::gs {
 

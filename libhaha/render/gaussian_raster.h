@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/gaussian_kernels.h"
 
 namespace haha {

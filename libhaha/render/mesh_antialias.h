@@ -37,7 +37,7 @@
 
 #include "core/hd.h"
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/mesh_raster.h"
 
 namespace haha {

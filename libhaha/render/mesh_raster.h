@@ -38,7 +38,7 @@
 #include <vector>
 
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha {
 

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/mesh_raster.h"
 #include "render/texture.h"
 

@@ -48,7 +48,7 @@
 #include "body/procedural_body.h"
 #include "body/smplx_params.h"
 #include "core/image.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/mesh_raster.h"
 
 namespace haha {

@@ -3,7 +3,7 @@
 #include "core/error.h"
 
 #if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 #endif
 
 namespace haha {

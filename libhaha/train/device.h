@@ -1,15 +1,13 @@
-// Where a command runs its kernels: `--device cpu|cuda` on train, eval, render, render-ply,
-// bench and train_bench. The trainer layer (and so everything above it) links the CUDA
-// backend whenever the build has one, so this is the one place that asks whether it exists.
+// Choosing a Device (core/device.h) for `--device cpu|cuda|auto`. The trainer layer (and so
+// everything above it) links the CUDA backend whenever the build has one, so this is the one
+// place that asks whether it exists.
 #pragma once
 
 #include <string>
 
+#include "core/device.h"
+
 namespace haha {
-
-enum class Device { cpu, cuda };
-
-inline const char* device_name(Device d) { return d == Device::cuda ? "cuda" : "cpu"; }
 
 // True when this build has the CUDA backend.
 bool cuda_backend_built();

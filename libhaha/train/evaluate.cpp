@@ -32,6 +32,15 @@ std::vector<EvalVariant> paper_variants(const Avatar& filtered, const Avatar& st
           {"HAHA filtered", &filtered, true, true}};
 }
 
+double variant_train_seconds(const std::array<double, 3>& s, size_t variant_index) {
+  switch (variant_index) {
+    case 0: return s[1];
+    case 1: return s[0];
+    case 2: return s[0] + s[1];
+    default: return s[0] + s[1] + s[2];
+  }
+}
+
 int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
   int64_t b = 0;
   if (gaussians) b += int64_t(a.gaussians.size()) * (56 + 4);

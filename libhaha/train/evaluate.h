@@ -5,6 +5,8 @@
 // (the data layer writes the report and the contact sheet).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,6 +29,11 @@ struct EvalVariant {
 // Gaussians (stage 1), naive merge (stage 1's Gaussians over the texture: stages 1 + 2),
 // HAHA filtered (all three stages). Both avatars must outlive the list.
 std::vector<EvalVariant> paper_variants(const Avatar& filtered, const Avatar& stage1);
+
+// Training time attributed to paper_variants()[variant_index] as in the paper's table, from
+// the wall time of each stage: mesh only = stage 2, full Gaussians = stage 1, naive merge =
+// stages 1 + 2, HAHA = all three.
+double variant_train_seconds(const std::array<double, 3>& stage_seconds, size_t variant_index);
 
 struct EvalOptions {
   int tto_steps = 100;             // test-time pose optimisation steps (0 = off)

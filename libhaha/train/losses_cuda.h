@@ -9,7 +9,7 @@
 
 #include <cstdint>
 
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 #include "train/losses.h"
 
 namespace haha::cuda {

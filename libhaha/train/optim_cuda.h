@@ -10,7 +10,7 @@
 
 #include "train/adam.h"
 #include "train/losses.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 
 namespace haha::cuda {
 

@@ -7,7 +7,7 @@
 
 #include "body/smplx_params.h"
 #include "core/image.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "train/trainer.h"
 
 namespace haha {

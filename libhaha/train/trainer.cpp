@@ -58,11 +58,11 @@ void validate_train_input(const TrainInput& in) {
 }
 
 
-Trainer::Trainer(const TrainConfig& config, TrainInput input, TrainDevice device)
+Trainer::Trainer(const TrainConfig& config, TrainInput input, Device device)
     : p_(std::make_unique<Impl>(config, std::move(input))) {
   p_->setup(true);
   p_->device_kind = device;
-  if (device == TrainDevice::cuda) {
+  if (device == Device::cuda) {
 #if defined(HAHA_HAS_CUDA) && HAHA_HAS_CUDA
     p_->dev = Impl::make_cuda(*p_);
     if (p_->stage <= 3) p_->dev->begin_stage(p_->stage);
@@ -85,7 +85,7 @@ bool Trainer::done() const { return p_->stage > 3; }
 StepReport Trainer::step() { return p_->run_step(); }
 int Trainer::num_gaussians() const { return p_->g.size(); }
 const TrainConfig& Trainer::config() const { return p_->cfg; }
-TrainDevice Trainer::device() const { return p_->device_kind; }
+Device Trainer::device() const { return p_->device_kind; }
 TrainCheckpoint Trainer::save() const {
   p_->sync_host();  // the checkpoint format is the host's on every device
   return p_->save();

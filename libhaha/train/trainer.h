@@ -34,7 +34,8 @@
 
 #include "body/avatar.h"
 #include "body/smplx_params.h"
-#include "render/camera.h"
+#include "core/camera.h"
+#include "core/device.h"
 #include "train/config.h"
 #include "train/image_loss.h"
 #include "train/lpips.h"
@@ -69,11 +70,6 @@ struct TrainCheckpoint {
   std::map<std::string, std::vector<double>> f64;
 };
 
-// Where the steps run. cuda: every stage's step on the GPU (train/trainer_cuda.cpp), the
-// state copied to the host at densification / pruning steps, stage changes, checkpoints
-// and for the outputs; the results follow the CPU's within floating-point reordering.
-enum class TrainDevice { cpu, cuda };
-
 struct StepReport {
   int stage = 0;       // of the step just run
   int step = 0;        // completed steps of that stage
@@ -87,10 +83,13 @@ struct StepReport {
 class Trainer {
  public:
   // Validates the input (validate_train_input + validate_config) and sets up stage 1.
-  // TrainDevice::cuda throws haha::Error "cuda: no usable GPU: <why>" without a usable
+  // Where the steps run: Device::cuda runs every stage's step on the GPU
+  // (train/trainer_cuda.cpp), the state copied to the host at densification / pruning
+  // steps, stage changes, checkpoints and for the outputs; the results follow the CPU's
+  // within floating-point reordering. Device::cuda throws haha::Error "cuda: no usable GPU: <why>" without a usable
   // device, "cuda: ..." for what the GPU path does not support (the LPIPS loss) or a
   // build without the CUDA backend.
-  Trainer(const TrainConfig& config, TrainInput input, TrainDevice device = TrainDevice::cpu);
+  Trainer(const TrainConfig& config, TrainInput input, Device device = Device::cpu);
   ~Trainer();
   Trainer(const Trainer&) = delete;
   Trainer& operator=(const Trainer&) = delete;
@@ -102,7 +101,7 @@ class Trainer {
   StepReport step();          // one optimisation step (advances the stage when it ends)
   int num_gaussians() const;
   const TrainConfig& config() const;
-  TrainDevice device() const;
+  Device device() const;
 
   TrainCheckpoint save() const;
   // Restores a save() of a run with the same config and input. Throws haha::Error

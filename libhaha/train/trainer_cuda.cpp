@@ -17,7 +17,7 @@
 #include "cuda/avatar_render_cuda.h"
 #include "cuda/lbs_cuda.h"
 #include "cuda/mesh_raster_cuda.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 #include "train/losses_cuda.h"
 #include "train/optim_cuda.h"
 #include "train/trainer_impl.h"

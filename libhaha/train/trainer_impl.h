@@ -101,7 +101,7 @@ struct Trainer::Impl {
   std::function<void(const std::string&, const std::vector<float>&)> pose_hook;
 
   // ---- device ----
-  TrainDevice device_kind = TrainDevice::cpu;
+  Device device_kind = Device::cpu;
   std::unique_ptr<TrainerDevice> dev;  // null: the steps run here (CPU)
   bool host_stale = false;             // the device holds newer state than the host
   struct Cuda;  // train/trainer_cuda.cpp (built with the CUDA backend only)

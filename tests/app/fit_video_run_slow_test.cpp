@@ -11,9 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "app/fit_video_run.h"
-#include "app/fit_video_truth.h"
+#include "fit/fit_video_truth.h"
 #include "app/keypoint_tool.h"
-#include "app/subprocess.h"
+#include "core/subprocess.h"
 #include "body/procedural_body.h"
 #include "core/atomic_file.h"
 #include "data/synth_dataset.h"
@@ -63,8 +63,8 @@ class FitVideoSlowTest : public testutil::TempDirTest {
     write_synth_dataset(path("synth"), low_body(), o, false);
     truth_ = read_dataset(path("synth"));
   }
-  FitVideoOptions options(const std::string& input) {
-    FitVideoOptions o;
+  FitVideoRunOptions options(const std::string& input) {
+    FitVideoRunOptions o;
     o.input = input;
     o.out = path("out");
     o.progress = true;  // the stage lines and the tool's progress show in the test log
@@ -75,7 +75,7 @@ class FitVideoSlowTest : public testutil::TempDirTest {
 
 TEST_F(FitVideoSlowTest, FolderOfFramesBecomesADatasetWithTheOraclesParameters) {
   test::OracleFitter oracle{&truth_, {0, 1, 2, 3}, {}};
-  FitVideoOptions o = options(path("synth/images"));
+  FitVideoRunOptions o = options(path("synth/images"));
   o.test_every = 2;
   o.focal_px = 321;
   o.save_body = true;
@@ -144,7 +144,7 @@ TEST_F(FitVideoSlowTest, Mp4WithDroppedFramesAndAFailedRerun) {
       << log;
   // --frames 1: keeps source frames 1, 2, 3; the oracle drops the second of them (source 2).
   test::OracleFitter oracle{&truth_, {1, 2, 3}, {1}};
-  FitVideoOptions o = options(path("clip.mp4"));
+  FitVideoRunOptions o = options(path("clip.mp4"));
   o.frames = "1:";
   const FitVideoSummary s = run_fit_video(o, low_body(), std::cref(oracle));
   EXPECT_EQ(s.decoded, 4);

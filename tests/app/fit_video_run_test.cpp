@@ -16,12 +16,12 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "app/fit_video_crop.h"
+#include "fit/fit_video_crop.h"
 #include "app/fit_video_input.h"
-#include "app/fit_video_report.h"
+#include "fit/fit_video_report.h"
 #include "app/fit_video_run.h"
 #include "app/keypoint_tool.h"
-#include "app/subprocess.h"
+#include "core/subprocess.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
 #include "core/atomic_file.h"
@@ -68,7 +68,7 @@ struct ScopedEnv {
   }
 };
 
-VideoFitResult never_called(const std::vector<VideoFitInputFrame>&, const VideoFitOptions&) {
+FitVideoResult never_called(const std::vector<FitVideoInputFrame>&, const FitVideoOptions&) {
   ADD_FAILURE() << "the fit must not run on bad input";
   return {};
 }
@@ -104,8 +104,8 @@ class FitVideoRunTest : public testutil::TempDirTest {
     for (const auto& e : fs::directory_iterator(fs::path(out).parent_path()))
       EXPECT_NE(e.path().filename().string().rfind(stem + ".", 0), 0u) << "left behind: " << e.path();
   }
-  FitVideoOptions options(const std::string& input) {
-    FitVideoOptions o;
+  FitVideoRunOptions options(const std::string& input) {
+    FitVideoRunOptions o;
     o.input = input;
     o.out = path("out");
     o.progress = false;
@@ -171,7 +171,7 @@ TEST_F(FitVideoRunTest, VideoDecodesToTheRightCountAndSize) {
 }
 
 TEST_F(FitVideoRunTest, MissingInputIsOneLineAndNothingWritten) {
-  const FitVideoOptions o = options(path("nope.mp4"));
+  const FitVideoRunOptions o = options(path("nope.mp4"));
   expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"no such file or folder"});
   expect_nothing_written(o.out);
 }
@@ -179,7 +179,7 @@ TEST_F(FitVideoRunTest, MissingInputIsOneLineAndNothingWritten) {
 TEST_F(FitVideoRunTest, NonVideoFileIsOneLineAndNothingWritten) {
   if (!have_ffmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
   std::ofstream(path("notes.mp4")) << "this is not a video\n";
-  const FitVideoOptions o = options(path("notes.mp4"));
+  const FitVideoRunOptions o = options(path("notes.mp4"));
   expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"not a video ffmpeg can read"});
   expect_nothing_written(o.out);
 }
@@ -187,7 +187,7 @@ TEST_F(FitVideoRunTest, NonVideoFileIsOneLineAndNothingWritten) {
 TEST_F(FitVideoRunTest, EmptyFolderIsOneLineAndNothingWritten) {
   fs::create_directories(path("empty"));
   std::ofstream(path("empty/readme.txt")) << "no images here\n";
-  const FitVideoOptions o = options(path("empty"));
+  const FitVideoRunOptions o = options(path("empty"));
   expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"no .png or .jpg images"});
   expect_nothing_written(o.out);
 }
@@ -195,7 +195,7 @@ TEST_F(FitVideoRunTest, EmptyFolderIsOneLineAndNothingWritten) {
 TEST_F(FitVideoRunTest, MixedSizesAreOneLineAndNothingWritten) {
   const std::string in = image_folder("in", 3, 40, 30);
   write_image(path("in/img_002.png"), smooth_frame(32, 30, 2));
-  const FitVideoOptions o = options(in);
+  const FitVideoRunOptions o = options(in);
   expect_error_at(path("in/img_002.png"), [&] { run_fit_video(o, BodyModel{}, never_called); },
                   {"32x30", "img_000.png is 40x30", "one size"});
   expect_nothing_written(o.out);
@@ -206,7 +206,7 @@ TEST_F(FitVideoRunTest, MixedSizesAreOneLineAndNothingWritten) {
 TEST_F(FitVideoRunTest, MissingNodeSaysHowToInstallIt) {
   const std::string in = image_folder("in", 2, 40, 30);
   fs::create_directories(path("bin"));  // a PATH without node (nor anything else)
-  const FitVideoOptions o = options(in);
+  const FitVideoRunOptions o = options(in);
   {
     ScopedEnv p("PATH", path("bin"));
     expect_error_at("node", [&] { run_fit_video(o, BodyModel{}, never_called); }, {"apt-get install nodejs npm"});
@@ -217,7 +217,7 @@ TEST_F(FitVideoRunTest, MissingNodeSaysHowToInstallIt) {
 TEST_F(FitVideoRunTest, MissingFfmpegSaysHowToInstallIt) {
   std::ofstream(path("clip.mp4")) << "whatever\n";
   fs::create_directories(path("bin"));  // a PATH without ffmpeg
-  const FitVideoOptions o = options(path("clip.mp4"));
+  const FitVideoRunOptions o = options(path("clip.mp4"));
   {
     ScopedEnv p("PATH", path("bin"));
     expect_error_at(o.input, [&] { run_fit_video(o, BodyModel{}, never_called); }, {"apt-get install ffmpeg"});
@@ -230,7 +230,7 @@ TEST_F(FitVideoRunTest, MissingToolPackagesSayHowToInstallThem) {
   const std::string in = image_folder("in", 2, 40, 30);
   fs::create_directories(path("tool"));
   std::ofstream(path("tool/keypoints.mjs")) << "process.exit(3);\n";
-  const FitVideoOptions o = options(in);
+  const FitVideoRunOptions o = options(in);
   {
     ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool"));
     EXPECT_EQ(find_keypoint_tool("elsewhere"), path("tool"));
@@ -257,7 +257,7 @@ TEST_F(FitVideoRunTest, KeypointsFastRunsTheToolsSingleModelPath) {
                                      "process.exit(1);\n");
   ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), a("HAHA_TEST_ARGS", path("args"));
   auto args = [&](const std::string& models) {
-    FitVideoOptions o = options(in);
+    FitVideoRunOptions o = options(in);
     o.keypoints = models;
     expect_error_at("stand-in", [&] { run_fit_video(o, BodyModel{}, never_called); }, {"stopped"});
     expect_nothing_written(o.out);
@@ -268,7 +268,7 @@ TEST_F(FitVideoRunTest, KeypointsFastRunsTheToolsSingleModelPath) {
 }
 
 TEST(FitVideoSplit, EveryNthKeptFrameAndTheHeldOutEnd) {
-  FitVideoOptions o;
+  FitVideoRunOptions o;
   for (int k = 0; k < 6; ++k) EXPECT_EQ(fit_video_split(o, k, 10 * k), Split::train) << k;
   o.test_every = 3;  // the 3rd, 6th, ... kept frame
   for (int k = 0; k < 6; ++k) EXPECT_EQ(fit_video_split(o, k, 0), k % 3 == 2 ? Split::test : Split::train) << k;
@@ -298,7 +298,7 @@ TEST_F(FitVideoRunTest, SigintWhileTheKeypointToolRunsIsOneLineAndLeavesNothing)
     for (int i = 0; i < 1000 && !fs::exists(path("started")); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     ::kill(::getpid(), SIGINT);
   });
-  const FitVideoOptions o = options(in);
+  const FitVideoRunOptions o = options(in);
   const auto t0 = std::chrono::steady_clock::now();
   try {
     run_fit_video(o, BodyModel{}, never_called);
@@ -317,29 +317,29 @@ TEST_F(FitVideoRunTest, SigintWhileTheKeypointToolRunsIsOneLineAndLeavesNothing)
 TEST_F(FitVideoRunTest, BadOptionsAreOneLine) {
   const std::string in = image_folder("in", 1, 16, 16);
   auto bad = [&](const char* where, auto edit) {
-    FitVideoOptions o = options(in);
+    FitVideoRunOptions o = options(in);
     edit(o);
     expect_error_at(where, [&] { validate_fit_video_options(o); }, {});
   };
-  bad("--keypoints", [](FitVideoOptions& o) { o.keypoints = "heavy"; });
-  bad("--fps", [](FitVideoOptions& o) { o.fps = -1; });
-  bad("--fps", [](FitVideoOptions& o) { o.fps = NAN; });
-  bad("--focal", [](FitVideoOptions& o) { o.focal_px = -5; });
-  bad("--fov", [](FitVideoOptions& o) { o.fov_deg = 180; });
-  bad("--test-every", [](FitVideoOptions& o) { o.test_every = 1; });
-  bad("--test-from", [](FitVideoOptions& o) { o.test_from = -3; });
-  bad("--robust-smoothness", [](FitVideoOptions& o) { o.robust_smoothness = -0.1; });
-  bad("--robust-smoothness", [](FitVideoOptions& o) { o.robust_smoothness = NAN; });
-  bad("--mask", [](FitVideoOptions& o) { o.mask = "rvm"; });
-  bad("--frames", [](FitVideoOptions& o) { o.frames = "4:2"; });
-  bad("--out", [](FitVideoOptions& o) { o.out = ""; });
-  bad("--out", [&](FitVideoOptions& o) { o.out = in + "/"; });
+  bad("--keypoints", [](FitVideoRunOptions& o) { o.keypoints = "heavy"; });
+  bad("--fps", [](FitVideoRunOptions& o) { o.fps = -1; });
+  bad("--fps", [](FitVideoRunOptions& o) { o.fps = NAN; });
+  bad("--focal", [](FitVideoRunOptions& o) { o.focal_px = -5; });
+  bad("--fov", [](FitVideoRunOptions& o) { o.fov_deg = 180; });
+  bad("--test-every", [](FitVideoRunOptions& o) { o.test_every = 1; });
+  bad("--test-from", [](FitVideoRunOptions& o) { o.test_from = -3; });
+  bad("--robust-smoothness", [](FitVideoRunOptions& o) { o.robust_smoothness = -0.1; });
+  bad("--robust-smoothness", [](FitVideoRunOptions& o) { o.robust_smoothness = NAN; });
+  bad("--mask", [](FitVideoRunOptions& o) { o.mask = "rvm"; });
+  bad("--frames", [](FitVideoRunOptions& o) { o.frames = "4:2"; });
+  bad("--out", [](FitVideoRunOptions& o) { o.out = ""; });
+  bad("--out", [&](FitVideoRunOptions& o) { o.out = in + "/"; });
   // An OUT that holds something else is never replaced.
   std::ofstream(path("precious.txt")) << "keep\n";
   fs::create_directories(path("other"));
   std::ofstream(path("other/precious.txt")) << "keep\n";
-  bad(path("other").c_str(), [&](FitVideoOptions& o) { o.out = path("other"); });
-  bad(path("precious.txt").c_str(), [&](FitVideoOptions& o) { o.out = path("precious.txt"); });
+  bad(path("other").c_str(), [&](FitVideoRunOptions& o) { o.out = path("other"); });
+  bad(path("precious.txt").c_str(), [&](FitVideoRunOptions& o) { o.out = path("precious.txt"); });
 }
 
 FitVideoSummary two_frame_summary() {
@@ -538,15 +538,15 @@ class FitVideoCropMattingTest : public FitVideoRunTest {
     return dir;
   }
   // Keeps frames kKept, the (low) body 40 m away on the disc: its outline lies inside the mask.
-  static VideoFitResult fitter(const std::vector<VideoFitInputFrame>& in, const VideoFitOptions&) {
-    VideoFitResult r;
+  static FitVideoResult fitter(const std::vector<FitVideoInputFrame>& in, const FitVideoOptions&) {
+    FitVideoResult r;
     r.camera.width = kVw;
     r.camera.height = kVh;
     r.camera.fx = r.camera.fy = 100;
     r.camera.cx = kVw / 2.0f;
     r.camera.cy = kVh / 2.0f;
     for (size_t i = 0; i < in.size(); ++i) {
-      VideoFitFrameReport rep;
+      FitVideoFrameReport rep;
       rep.reprojection_px = 1;
       rep.silhouette_iou = 0.9;
       rep.dropped = std::find(kKept.begin(), kKept.end(), int(i)) == kKept.end();
@@ -562,7 +562,7 @@ class FitVideoCropMattingTest : public FitVideoRunTest {
     return r;
   }
   FitVideoSummary run(const std::string& in, bool crop, const std::string& matting) {
-    FitVideoOptions o = options(in);
+    FitVideoRunOptions o = options(in);
     o.crop = crop;
     o.matting = matting;
     ScopedEnv t("HAHA_KEYPOINTS_TOOL", path("tool")), k("HAHA_TEST_KP", path("kp"));
@@ -680,7 +680,7 @@ TEST_F(FitVideoCropMattingTest, AMovingCameraKeepsTheToolsMasksAndSaysSo) {
 }
 
 TEST_F(FitVideoRunTest, MattingOptionIsChecked) {
-  FitVideoOptions o = options(image_folder("in", 1, 16, 16));
+  FitVideoRunOptions o = options(image_folder("in", 1, 16, 16));
   o.matting = "always";
   expect_error_at("--matting", [&] { validate_fit_video_options(o); }, {"always", "auto", "off"});
 }

@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "app/bench_sweeps.h"
+#include "bench/bench_sweeps.h"
 #include "app/run_dir.h"
 #include "app/train_frames.h"
 #include "app/train_run.h"

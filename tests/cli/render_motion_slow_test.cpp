@@ -70,7 +70,7 @@ TEST(RenderMotionCli, AmassZUpRendersUprightFacingTheCameraAtTheMocapRate) {
       << slurp(dir / "err.txt");
 
   // The avatar's rest pelvis J0 (posed pelvis at zero pose and transl).
-  const AvatarRuntime rt = AvatarRuntime::load((dir / "a.glb").string());
+  const AvatarLoader rt = AvatarLoader::load((dir / "a.glb").string());
   PosedAvatar posed;
   rt.repose(SmplxParams{}, posed);
   const V3 J0(posed.joints[0], posed.joints[1], posed.joints[2]);

@@ -33,7 +33,7 @@
 #include "cuda/lbs_cuda.h"
 #include "cuda/mesh_raster_cuda.h"
 #include "train/optim_cuda.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 #include "support/cuda_scene.h"
 #include "render/gaussian_raster.h"
 #include "render/merge.h"

@@ -34,7 +34,7 @@
 
 #include "core/error.h"
 #include "cuda/gaussian_raster_cuda.h"
-#include "cuda/runtime.h"
+#include "cuda/cuda_base.h"
 #include "render/gaussian_kernels.h"
 #include "support/train_test_scene.h"
 #include "train/evaluate.h"
@@ -85,7 +85,7 @@ struct StepResult {
   int gaussians = 0;
 };
 
-StepResult one_step(const TrainConfig& c, int size, const TrainCheckpoint& from, TrainDevice device) {
+StepResult one_step(const TrainConfig& c, int size, const TrainCheckpoint& from, Device device) {
   Trainer t(c, scene_input(frames(size)), device);
   t.load(from, "test checkpoint");
   StepResult r;
@@ -227,11 +227,11 @@ void expect_step_close(const StepResult& cpu, const StepResult& gpu, const StepR
 
 // One step from `start` on the CPU, on the GPU, and on the CPU from the perturbed start.
 StepResult expect_one_step_close(const TrainConfig& c, int size, const TrainCheckpoint& start, int stage) {
-  StepResult cpu = one_step(c, size, start, TrainDevice::cpu);
-  const StepResult gpu = one_step(c, size, start, TrainDevice::cuda);
+  StepResult cpu = one_step(c, size, start, Device::cpu);
+  const StepResult gpu = one_step(c, size, start, Device::cuda);
   // Two perturbed runs; per value the one farther from the CPU's gives the spread.
-  StepResult noise = one_step(c, size, perturbed(start, 1234), TrainDevice::cpu);
-  const StepResult other = one_step(c, size, perturbed(start, 5678), TrainDevice::cpu);
+  StepResult noise = one_step(c, size, perturbed(start, 1234), Device::cpu);
+  const StepResult other = one_step(c, size, perturbed(start, 5678), Device::cpu);
   for (auto& [key, v] : noise.after.f32) {
     const std::vector<float>& c0 = cpu.after.f32.at(key);
     const std::vector<float>& o = other.after.f32.at(key);
@@ -259,7 +259,7 @@ TEST(CudaTrainer, NoGpuIsOneLineError) {
   TrainConfig c = scene_config(2, 0, 0);
   if (!cuda::cuda_available()) {
     try {
-      Trainer t(c, scene_input(frames(40)), TrainDevice::cuda);
+      Trainer t(c, scene_input(frames(40)), Device::cuda);
       FAIL() << "constructed without a GPU";
     } catch (const Error& e) {
       const std::string m = e.what();
@@ -268,8 +268,8 @@ TEST(CudaTrainer, NoGpuIsOneLineError) {
     }
     return;
   }
-  Trainer t(c, scene_input(frames(40)), TrainDevice::cuda);
-  EXPECT_EQ(t.device(), TrainDevice::cuda);
+  Trainer t(c, scene_input(frames(40)), Device::cuda);
+  EXPECT_EQ(t.device(), Device::cuda);
   while (!t.done()) t.step();
 }
 
@@ -346,8 +346,8 @@ TEST(CudaTrainer, DensifyMatchesCpu) {
   REQUIRE_CUDA();
   const TrainConfig c = step_config();  // densifies after steps 4 and 8
   const TrainCheckpoint start = cpu_checkpoint(c, 64, 1, 3);
-  const StepResult cpu = one_step(c, 64, start, TrainDevice::cpu);
-  const StepResult gpu = one_step(c, 64, start, TrainDevice::cuda);
+  const StepResult cpu = one_step(c, 64, start, Device::cpu);
+  const StepResult gpu = one_step(c, 64, start, Device::cuda);
   ASSERT_NE(cpu.report.event.find("densify"), std::string::npos) << cpu.report.event;
   EXPECT_NE(gpu.report.event.find("densify"), std::string::npos) << gpu.report.event;
   EXPECT_GT(cpu.gaussians, int(start.i32.at("g.face").size()));
@@ -359,8 +359,8 @@ TEST(CudaTrainer, PruneMatchesCpu) {
   TrainConfig c = step_config();  // prunes after stage-3 steps 3, 6 and 8
   c.s3.prune_threshold = c.s1.opacity;  // every Gaussian whose opacity went down goes
   const TrainCheckpoint start = cpu_checkpoint(c, 64, 3, 2);
-  const StepResult cpu = one_step(c, 64, start, TrainDevice::cpu);
-  const StepResult gpu = one_step(c, 64, start, TrainDevice::cuda);
+  const StepResult cpu = one_step(c, 64, start, Device::cpu);
+  const StepResult gpu = one_step(c, 64, start, Device::cuda);
   ASSERT_NE(cpu.report.event.find("prune"), std::string::npos) << cpu.report.event;
   EXPECT_LT(cpu.gaussians, int(start.i32.at("g.face").size()));
   expect_same_gaussians(cpu, gpu);
@@ -369,10 +369,10 @@ TEST(CudaTrainer, PruneMatchesCpu) {
 TEST(CudaTrainer, CheckpointRoundTripDeviceHostDevice) {
   REQUIRE_CUDA();
   const TrainConfig c = step_config();
-  Trainer a(c, scene_input(frames(64)), TrainDevice::cuda);
+  Trainer a(c, scene_input(frames(64)), Device::cuda);
   for (int i = 0; i < 5; ++i) a.step();  // past a densification
   const TrainCheckpoint ck = a.save();
-  Trainer b(c, scene_input(frames(64)), TrainDevice::cuda);
+  Trainer b(c, scene_input(frames(64)), Device::cuda);
   b.load(ck, "round trip");
   const TrainCheckpoint back = b.save();  // device -> host -> device -> host
   EXPECT_EQ(back.f32, ck.f32);
@@ -394,7 +394,7 @@ TEST(CudaTrainer, ThreeHundredStepsWithinPointThreeDb) {
   c.s3.prune_every = 25;
   c.s2.texture_size = 64;
   const std::vector<TrainFrame>& f = frames(128);
-  auto psnr_of = [&](TrainDevice d) {
+  auto psnr_of = [&](Device d) {
     Trainer t(c, scene_input(f), d);
     while (!t.done()) t.step();
     const Avatar a = t.avatar();
@@ -403,7 +403,7 @@ TEST(CudaTrainer, ThreeHundredStepsWithinPointThreeDb) {
     o.premultiplied = true;
     return evaluate_variant({"avatar", &a, true, true}, f, o).psnr;
   };
-  const double cpu = psnr_of(TrainDevice::cpu), gpu = psnr_of(TrainDevice::cuda);
+  const double cpu = psnr_of(Device::cpu), gpu = psnr_of(Device::cuda);
   std::printf("300 steps at 128 px: PSNR cpu %.3f dB, cuda %.3f dB\n", cpu, gpu);
   EXPECT_LE(std::fabs(gpu - cpu), 0.3) << "cpu " << cpu << " gpu " << gpu;
 }

@@ -315,7 +315,7 @@ class PeopleSnapshotTest : public TempDirTest {
     z.set("transl", NpyArray::from(transl, {n, 3}));
     z.write(path);
   }
-  // The fit stands in for app/smpl_fit.h: it records what it was given and marks its
+  // The fit stands in for fit/smpl_fit.h: it records what it was given and marks its
   // output (betas {7}, transl + 10) so the dataset provably holds the fit's result.
   PeopleSnapshotOptions opts(const std::string& d) {
     PeopleSnapshotOptions o;

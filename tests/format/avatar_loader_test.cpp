@@ -1,4 +1,4 @@
-// The runtime loader: repose and render packed avatars like the in-memory original.
+// The loader: repose and render packed avatars like the in-memory original.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,9 +14,9 @@
 namespace haha {
 namespace {
 
-AvatarRuntime runtime_of(const Avatar& a, const PackOptions& opt) {
+AvatarLoader loader_of(const Avatar& a, const PackOptions& opt) {
   const std::vector<uint8_t> bytes = pack_avatar(a, opt);
-  return AvatarRuntime(unpack_avatar(bytes.data(), bytes.size(), "mem.glb").avatar);
+  return AvatarLoader(unpack_avatar(bytes.data(), bytes.size(), "mem.glb").avatar);
 }
 
 SmplxParams random_pose(uint32_t seed, float amplitude) {
@@ -58,7 +58,7 @@ TEST(FormatLoader, RestPoseIsTheBakedMeshAndItsGaussians) {
   const Avatar a = test::make_test_avatar(100);
   PackOptions lossless;
   lossless.lossless = true;
-  const AvatarRuntime rt = runtime_of(a, lossless);
+  const AvatarLoader rt = loader_of(a, lossless);
   SmplxParams p;  // zero pose
   p.transl = {0.5f, 0.0f, -0.25f};
   p.betas = {3.0f, 3.0f};  // ignored: the subject's shape is baked
@@ -76,7 +76,7 @@ TEST(FormatLoader, RestPoseIsTheBakedMeshAndItsGaussians) {
 
 TEST(FormatLoader, PackedAvatarsReposeLikeTheOriginal) {
   const Avatar a = test::make_test_avatar(300);
-  const AvatarRuntime original(a);  // shaped by the runtime from betas/expression
+  const AvatarLoader original(a);  // shaped by the loader from betas/expression
   PackOptions lossless;
   lossless.lossless = true;
   lossless.pose_correctives = haha::PoseCorrectives::dense;
@@ -84,7 +84,7 @@ TEST(FormatLoader, PackedAvatarsReposeLikeTheOriginal) {
   lossy.pose_correctives = haha::PoseCorrectives::dense;
   PackOptions fine_weights = lossy;
   fine_weights.mesh_bits.weight = 16;
-  const AvatarRuntime exact = runtime_of(a, lossless), packed = runtime_of(a, lossy), packed16 = runtime_of(a, fine_weights);
+  const AvatarLoader exact = loader_of(a, lossless), packed = loader_of(a, lossy), packed16 = loader_of(a, fine_weights);
   for (uint32_t seed = 1; seed <= 3; ++seed) {
     const SmplxParams p = random_pose(seed, 0.4f);
     PosedAvatar po, pe, pp, p16;
@@ -110,11 +110,11 @@ TEST(FormatLoader, PackedAvatarsReposeLikeTheOriginal) {
 // checks the default's 45 dB), so this test packs with the finer version-1 bits.
 TEST(FormatLoader, QuantizedPackRendersWithin45dBOfTheOriginal) {
   const Avatar a = test::make_test_avatar(600, 7, 64, 64);
-  const AvatarRuntime original(a);
+  const AvatarLoader original(a);
   PackOptions opt;
   opt.pose_correctives = haha::PoseCorrectives::dense;  // the comparison is about quantization, not correctives
   opt.gaussian_bits = parse_gaussian_bits("offset=12,rotation=10,scale=8,color=7,opacity=7", "test");
-  const AvatarRuntime packed = runtime_of(a, opt);
+  const AvatarLoader packed = loader_of(a, opt);
   const Camera cam = front_camera(96);
   AvatarRenderScratch scratch;
   for (uint32_t seed = 1; seed <= 3; ++seed) {
@@ -140,8 +140,8 @@ TEST(FormatLoader, ExternalPoseCorrectivesMatchEmbeddedOnes) {
   PackOptions with, without;
   with.lossless = without.lossless = true;
   with.pose_correctives = haha::PoseCorrectives::dense;
-  const AvatarRuntime embedded = runtime_of(a, with);
-  AvatarRuntime external = runtime_of(a, without);
+  const AvatarLoader embedded = loader_of(a, with);
+  AvatarLoader external = loader_of(a, without);
   EXPECT_TRUE(embedded.has_pose_correctives());
   EXPECT_FALSE(external.has_pose_correctives());
   const SmplxParams p = random_pose(9, 0.5f);
@@ -174,10 +174,10 @@ TEST(FormatLoader, DepthMarginTravelsThroughTheFileAndReachesTheRender) {
   exact.depth_margin = 0.0f;
   EXPECT_FALSE(has_member(pack_avatar(exact, lossless)));  // the default writes nothing new
 
-  const AvatarRuntime from_file(u.avatar), in_memory(a), no_margin(exact);
+  const AvatarLoader from_file(u.avatar), in_memory(a), no_margin(exact);
   const Camera cam = front_camera(96);
   const SmplxParams p = random_pose(4, 0.2f);
-  auto render = [&](const AvatarRuntime& rt) {
+  auto render = [&](const AvatarLoader& rt) {
     PosedAvatar posed;
     rt.repose(p, posed);
     std::vector<float> rgb;
@@ -195,7 +195,7 @@ TEST(FormatLoader, DepthMarginTravelsThroughTheFileAndReachesTheRender) {
 
 TEST(FormatLoader, RenderRejectsForeignFrames) {
   const Avatar a = test::make_test_avatar(20);
-  const AvatarRuntime rt(a);
+  const AvatarLoader rt(a);
   PosedAvatar empty;
   std::vector<float> rgb;
   EXPECT_THROW(rt.render(front_camera(8), empty, rgb), Error);

@@ -27,7 +27,7 @@ using glb::Json;
 
 // Posed Gaussians (means, then quaternions with w >= 0) of an avatar, in stored order.
 std::vector<float> posed(const Avatar& a, const SmplxParams& p) {
-  AvatarRuntime rt(a);
+  AvatarLoader rt(a);
   PosedAvatar out;
   rt.repose(p, out);
   std::vector<float> v(out.means);
@@ -294,7 +294,7 @@ TEST(FormatEngineCompat, SplatsAreSkinnedAndFollowTheSkeleton) {
   p.pose[16 * 3 + 2] = -1.3f;  // left shoulder
   p.pose[18 * 3 + 1] = -0.9f;  // left elbow
   const UnpackedAvatar u = unpack(bytes, "splats.glb");
-  AvatarRuntime rt(u.avatar);
+  AvatarLoader rt(u.avatar);
   PosedAvatar exact;
   rt.repose(p, exact);
   // The splats are in the packer's (trainer's) order; the unpacked Gaussians are sorted by

@@ -294,7 +294,7 @@ TEST(FormatRoundTrip, PackedMeshKeepsBodyFaceOrderInTheGltf) {
 // Posed Gaussians (mean, rotation up to sign, scale) of an unpacked avatar, sorted so two
 // files with the Gaussians in different orders compare element by element.
 std::vector<std::array<float, 10>> posed_gaussians(const Avatar& a, const SmplxParams& p) {
-  AvatarRuntime rt(a);
+  AvatarLoader rt(a);
   PosedAvatar posed;
   rt.repose(p, posed);
   std::vector<std::array<float, 10>> out(size_t(posed.num_gaussians));

@@ -52,7 +52,7 @@ struct Renders {
   std::vector<std::vector<float>> images;
 };
 
-Renders render_all(const AvatarRuntime& rt) {
+Renders render_all(const AvatarLoader& rt) {
   Renders r;
   AvatarRenderScratch scratch;
   PosedAvatar posed;
@@ -89,7 +89,7 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // rows appear as they are measured
   const auto t0 = std::chrono::steady_clock::now();
   const Avatar a = test::make_realistic_avatar(12000, 512);
-  const AvatarRuntime original(a);
+  const AvatarLoader original(a);
   const Renders ref = render_all(original);
   // Not an empty picture: the body covers a good part of the frame.
   double mean = 0;
@@ -132,7 +132,7 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
     const UnpackedAvatar u = unpack_avatar(bytes.data(), bytes.size(), "realistic.glb");
     // The file's own pose correctives (compact, embedded by default); the body model's
     // where a file has none (what `haha render --model` does: lossless packs).
-    AvatarRuntime rt(u.avatar);
+    AvatarLoader rt(u.avatar);
     if (!rt.has_pose_correctives()) rt.set_pose_correctives(a.body);
     const double db = psnr(ref, render_all(rt));
     std::printf("%-28s %10zu %10zu %9zu %9zu %9zu %9zu %8.2f\n", row.name.c_str(), sz.total, sz.gaussians + sz.texture,
@@ -156,7 +156,7 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
       baked.body.v_template = baked_rest_vertices(a);
       baked.body.shapedirs.clear();
       baked.body.num_shape = baked.body.num_expr = 0;
-      EXPECT_EQ(psnr(render_all(AvatarRuntime(baked)), render_all(rt)), INFINITY);
+      EXPECT_EQ(psnr(render_all(AvatarLoader(baked)), render_all(rt)), INFINITY);
     }
   }
   {
@@ -164,20 +164,20 @@ TEST(FormatStorage, RealisticAvatarSizesAndQuality) {
     o.pose_correctives = PoseCorrectives::none;
     PackedSizes sz;
     const std::vector<uint8_t> bytes = pack_avatar(a, o, &sz);
-    const AvatarRuntime rt(unpack_avatar(bytes.data(), bytes.size(), "realistic.glb").avatar);
+    const AvatarLoader rt(unpack_avatar(bytes.data(), bytes.size(), "realistic.glb").avatar);
     std::printf("--no-pose-correctives (%zu B), reposed without the body model: %.2f dB\n", sz.total, psnr(ref, render_all(rt)));
   }
   {
     // The same avatar on the dense stand-in for SMPL-X's correctives.
     Avatar d = a;
     test::add_dense_pose_correctives(d.body);
-    const Renders dref = render_all(AvatarRuntime(d));
+    const Renders dref = render_all(AvatarLoader(d));
     for (PoseCorrectives pc : {PoseCorrectives::compact, PoseCorrectives::none}) {
       PackOptions o;
       o.pose_correctives = pc;
       PackedSizes sz;
       const std::vector<uint8_t> bytes = pack_avatar(d, o, &sz);
-      const AvatarRuntime rt(unpack_avatar(bytes.data(), bytes.size(), "dense.glb").avatar);
+      const AvatarLoader rt(unpack_avatar(bytes.data(), bytes.size(), "dense.glb").avatar);
       std::printf("dense stand-in correctives, %s: file %zu B (correctives %zu B), %.2f dB\n",
                   pc == PoseCorrectives::none ? "--no-pose-correctives" : "default", sz.total, sz.pose_correctives,
                   psnr(dref, render_all(rt)));

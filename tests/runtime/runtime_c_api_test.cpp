@@ -98,8 +98,8 @@ haha_avatar* load_ok(const fs::path& path, const char* model = nullptr) {
 }
 
 // The C++ runtime of the same bytes: what the C API must reproduce exactly.
-AvatarRuntime cpp_runtime(const std::vector<uint8_t>& bytes) {
-  return AvatarRuntime(unpack_avatar(bytes.data(), bytes.size(), "mem.glb").avatar);
+AvatarLoader cpp_runtime(const std::vector<uint8_t>& bytes) {
+  return AvatarLoader(unpack_avatar(bytes.data(), bytes.size(), "mem.glb").avatar);
 }
 
 using test::front_camera;
@@ -385,7 +385,7 @@ TEST(RuntimeCApi, ReposeMatchesTheCppRuntime) {
   a.p = load_ok(fx().lossless_path);
   PosedHandle p;
   ASSERT_EQ(haha_posed_create(a.p, &p.p), HAHA_OK);
-  const AvatarRuntime ref = cpp_runtime(fx().lossless);
+  const AvatarLoader ref = cpp_runtime(fx().lossless);
   const size_t V = size_t(ref.num_verts()), N = size_t(ref.num_gaussians());
 
   // Rest pose (NULL pose and translation) is the loader's rest pose: the baked mesh.
@@ -520,7 +520,7 @@ TEST(RuntimeCApi, RenderMatchesTheCppRuntimeInEveryPixelFormat) {
   const haha_camera cam = front_camera(W, H);
   const float bg[3] = {0.2f, 0.4f, 0.6f};
 
-  const AvatarRuntime ref = cpp_runtime(fx().lossless);
+  const AvatarLoader ref = cpp_runtime(fx().lossless);
   SmplxParams sp;
   std::copy(pose.begin(), pose.end(), sp.pose.begin());
   PosedAvatar posed;
@@ -737,7 +737,7 @@ TEST(RuntimeCApi, MotionsForAnAvatarAreTurnedUpright) {
   a.p = load_ok(fx().lossless_path);
   haha_motion* m = nullptr;
   ASSERT_EQ(haha_motion_load_for_avatar(path.c_str(), a.p, &m), HAHA_OK) << haha_last_error();
-  const AvatarRuntime ref = cpp_runtime(fx().lossless);
+  const AvatarLoader ref = cpp_runtime(fx().lossless);
   PosedAvatar rest;
   ref.repose(SmplxParams{}, rest);
   Motion want = read_motion(path.string());

@@ -11,7 +11,7 @@
 #include "body/face_frames.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/texture.h"
 #include "render/avatar_render.h"
 

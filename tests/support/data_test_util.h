@@ -14,7 +14,7 @@
 #include "body/smplx_params.h"
 #include "core/error.h"
 #include "io/image.h"
-#include "render/camera.h"
+#include "core/camera.h"
 #include "support/expect_error.h"
 
 namespace haha::testutil {

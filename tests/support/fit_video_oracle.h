@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "app/fit_video_run.h"
+#include "fit/fit_video.h"
 #include "data/dataset.h"
 
 namespace haha::test {
@@ -20,22 +20,22 @@ struct OracleFitter {
   std::vector<int> source;         // per input frame: its frame in `truth`
   std::set<int> drop;              // input frames to report as dropped
   mutable int calls = 0;
-  mutable VideoFitOptions seen{};  // the options of the last call
+  mutable FitVideoOptions seen{};  // the options of the last call
 
   static double reprojection(int i) { return 1.0 + 0.25 * i; }
   static double iou(int i) { return 0.9 - 0.01 * i; }
 
-  VideoFitResult operator()(const std::vector<VideoFitInputFrame>& frames, const VideoFitOptions& opt) const {
+  FitVideoResult operator()(const std::vector<FitVideoInputFrame>& frames, const FitVideoOptions& opt) const {
     ++calls;
     seen = opt;
-    VideoFitResult r;
+    FitVideoResult r;
     EXPECT_EQ(frames.size(), source.size());
     r.camera = truth->frames.at(0).camera;
     for (size_t i = 0; i < frames.size() && i < source.size(); ++i) {
       EXPECT_EQ(frames[i].keypoints.width, truth->width);
       EXPECT_EQ(frames[i].keypoints.height, truth->height);
       EXPECT_EQ(frames[i].mask.width, truth->width);
-      VideoFitFrameReport rep;
+      FitVideoFrameReport rep;
       rep.frame = frames[i].keypoints.frame;
       if (drop.count(int(i))) {
         rep.dropped = true;

@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "render/camera.h"
+#include "core/camera.h"
 #include "render/sh.h"
 
 namespace haha::testref {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/math.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace haha::fixtures {
 

@@ -250,7 +250,7 @@ int run(const Options& o) {
     prefit_seconds = seconds_since(t0);
     std::printf("pose pre-fit to the masks: %d steps per frame, %.1f s\n", cfg.s0.steps, prefit_seconds);
   }
-  Trainer trainer(cfg, std::move(input), device == Device::cuda ? TrainDevice::cuda : TrainDevice::cpu);
+  Trainer trainer(cfg, std::move(input), device);
 
   StageRow stages[3] = {{"1 Gaussians", cfg.s1.steps}, {"2 texture", cfg.s2.steps}, {"3 filtering", cfg.s3.steps}};
   const int64_t total = cfg.total_steps();

@@ -11,7 +11,7 @@
 #include "fuzz_target.h"
 #include "io/image.h"
 #include "io/smplx_params_io.h"
-#include "render/camera.h"
+#include "core/camera.h"
 
 namespace {
 
