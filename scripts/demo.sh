@@ -40,12 +40,12 @@ step() {  # step NAME: prints a banner with the elapsed time
 
 step build "install dependencies and build the haha command (scripts/build.sh --target haha)"
 if [ "$build" = 1 ]; then
-  # Only what the demo runs: the `haha` command, without the tests' npm packages, browser
-  # and keypoint tool (scripts/test.sh installs those), and without the CUDA objects where
-  # no GPU answers nvidia-smi (nothing here would run them; test.sh builds them).
+  # Only what the demo runs: the `haha` command, without the tests (their libraries, npm
+  # packages, browser and keypoint tool: scripts/test.sh installs and builds those), and
+  # without the CUDA objects where no GPU answers nvidia-smi (test.sh builds them).
   cuda=OFF
   if nvidia-smi -L 2>/dev/null | grep -q '^GPU'; then cuda=ON; fi
-  HAHA_BUILD_ONLY=1 bash scripts/build.sh --target haha -DHAHA_WITH_CUDA=$cuda
+  HAHA_BUILD_ONLY=1 bash scripts/build.sh --target haha -DHAHA_WITH_CUDA=$cuda -DHAHA_BUILD_TESTS=OFF
 fi
 [ -x "$haha" ] || { echo "demo.sh: $haha is not built (run without --no-build)" >&2; exit 1; }
 

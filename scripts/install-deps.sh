@@ -1,15 +1,18 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages haha builds against (skips apt when all are present), and
 # the pinned npm packages and Chromium the tests use. HAHA_BUILD_ONLY=1 (the demo) installs
-# only what building and running `haha` needs: no node, npm packages or browser.
+# only what building and running `haha` needs: no test libraries, gnuplot, node, npm
+# packages or browser.
 set -euo pipefail
 if [ "${HAHA_BUILD_ONLY:-0}" = 1 ]; then
   export HAHA_NO_BROWSER=1 HAHA_NO_KEYPOINTS=1
 fi
 pkgs=(build-essential cmake ninja-build pkg-config git
       libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libopenmesh-dev
-      libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev
-      libgtest-dev libbenchmark-dev gnuplot-nox ffmpeg)
+      libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev ffmpeg)
+# The tests and benchmarks (GoogleTest, Google Benchmark) and `haha bench`'s plots (gnuplot):
+# not for the demo, which builds `haha` alone with HAHA_BUILD_TESTS=OFF.
+[ "${HAHA_BUILD_ONLY:-0}" = 1 ] || pkgs+=(libgtest-dev libbenchmark-dev gnuplot-nox)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # The CUDA backend is compiled wherever nvcc is (its gpu tests run only where a GPU is);
 # ON explicitly, since a demo build without a GPU may have turned it off in the cache.
-bash scripts/build.sh -DHAHA_WITH_CUDA=ON
+bash scripts/build.sh -DHAHA_WITH_CUDA=ON -DHAHA_BUILD_TESTS=ON  # the demo may have left them off
 cd build
 # Passive OpenMP waiting: ctest runs several test programs at once on few cores.
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
