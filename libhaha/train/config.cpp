@@ -92,6 +92,9 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s1.densify.clone_scale", K::Double, &s1.densify_clone_scale, "max local scale for clone (else split)"});
   v.push_back({"s1.densify.split_div", K::Double, &s1.densify_split_div, "split children's scale divisor"});
   v.push_back({"s1.densify.split_std", K::Double, &s1.densify_split_std, "split offset std (times scale)"});
+  v.push_back({"s1.w.stretch", K::Double, &s1.w.stretch,
+               "weight of the stretch regulariser: Gaussians of faces that stretch as the arms move stay small and "
+               "close to their face (train/face_stretch.h)"});
   v.push_back({"s1.max_gaussians", K::Int, &s1.max_gaussians, "densification stops at this count"});
   v.push_back({"s1.knn.k", K::Int, &s1.knn_k, "KNN regulariser set size (self + k-1 neighbours)"});
   v.push_back({"s1.knn.every", K::Int, &s1.knn_every, "steps between neighbour-set updates"});

@@ -31,6 +31,7 @@ struct LossWeights {
   double dice = 0.1;     // silhouette Dice
   double tv = 0.01;      // texture TV (stage 2)
   double opacity = 0.0;    // opacity regulariser (stage 3 sets its own)
+  double stretch = 0.0;    // stretch regulariser (stage 1 only; train/face_stretch.h)
 };
 
 // Pose pre-fit to the masks before stage 1 (train/silhouette_fit.h); off by default.

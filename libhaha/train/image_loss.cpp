@@ -12,6 +12,7 @@ void LossTerms::add(const LossTerms& o, double s) {
   sobel += s * o.sobel;
   lpips += s * o.lpips;
   knn += s * o.knn;
+  stretch += s * o.stretch;
   dice += s * o.dice;
   tv += s * o.tv;
   opacity += s * o.opacity;

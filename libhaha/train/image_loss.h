@@ -16,7 +16,7 @@ namespace haha {
 
 // Loss values of one step (averaged over the batch); unused terms stay 0.
 struct LossTerms {
-  double total = 0, l2 = 0, ssim = 0, sobel = 0, lpips = 0, knn = 0, dice = 0, tv = 0, opacity = 0;
+  double total = 0, l2 = 0, ssim = 0, sobel = 0, lpips = 0, knn = 0, dice = 0, tv = 0, opacity = 0, stretch = 0;
   void add(const LossTerms& o, double s);
 };
 

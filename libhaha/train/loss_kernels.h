@@ -211,6 +211,25 @@ HAHA_HD void opacity_reg_grad_item(const T* o, int64_t i, OpacityRegMode mode, T
   grad[i] += mode == OpacityRegMode::SumSquares ? k * T(2) * o[i] : k * sign_of(o[i]);
 }
 
+// Stretch regulariser: Gaussian i's value (double) and its gradient; k = grad_k / n.
+template <class T>
+HAHA_HD double stretch_reg_value_item(const int32_t* face, const float* stretch, const T* offset, const T* scale,
+                                      int64_t i) {
+  const double w = stretch[face[i]];
+  double v = 0.0;
+  for (int c = 0; c < 3; ++c) v += double(offset[3 * i + c]) * double(offset[3 * i + c]) + double(scale[3 * i + c]) * double(scale[3 * i + c]);
+  return w * v;
+}
+template <class T>
+HAHA_HD void stretch_reg_grad_item(const int32_t* face, const float* stretch, const T* offset, const T* scale,
+                                   int64_t i, T k, T* grad_offset, T* grad_scale) {
+  const T w = T(2) * k * T(stretch[face[i]]);
+  for (int c = 0; c < 3; ++c) {
+    if (grad_offset) grad_offset[3 * i + c] += w * offset[3 * i + c];
+    if (grad_scale) grad_scale[3 * i + c] += w * scale[3 * i + c];
+  }
+}
+
 // ---- KNN regulariser ----
 // Members of set i: the entries of row (K values) in [0, n), in row order.
 HAHA_HD bool knn_member(int32_t j, int64_t n) { return j >= 0 && j < n; }

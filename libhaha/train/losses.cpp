@@ -290,6 +290,24 @@ T opacity_reg(const T* o, int64_t n, OpacityRegMode mode, T* grad, T grad_scale)
   return T(s / double(n));
 }
 
+// ---- Stretch regulariser -------------------------------------------------------------------------
+
+template <class T>
+T stretch_reg(const int32_t* face, const float* stretch, const T* offset, const T* scale, int64_t n, T* grad_offset,
+              T* grad_scale, T grad_k) {
+  if (n <= 0) return T(0);
+  const double s = chunked_sum(n, [&](int64_t b, int64_t e) {
+    double v = 0.0;
+    for (int64_t i = b; i < e; ++i) v += loss::stretch_reg_value_item(face, stretch, offset, scale, i);
+    return v;
+  });
+  if (grad_offset || grad_scale) {
+    const T k = grad_k / T(n);
+    par_for(n, 2, [&](int64_t i) { loss::stretch_reg_grad_item(face, stretch, offset, scale, i, k, grad_offset, grad_scale); });
+  }
+  return T(s / double(n));
+}
+
 // ---- KNN regulariser -----------------------------------------------------------------------------
 
 template <class T>
@@ -314,6 +332,7 @@ T knn_reg(const KnnRegInputs<T>& in, const int32_t* sets, int K, const KnnRegWei
   template T dice_loss<T>(const T*, const T*, int64_t, T*, T);                                           \
   template T texture_tv_loss<T>(const T*, int, int, int, T*, T);                                         \
   template T opacity_reg<T>(const T*, int64_t, OpacityRegMode, T*, T);                                   \
+  template T stretch_reg<T>(const int32_t*, const float*, const T*, const T*, int64_t, T*, T*, T);       \
   template T knn_reg<T>(const KnnRegInputs<T>&, const int32_t*, int, const KnnRegWeights&,              \
                         const KnnRegGrads<T>*, T);
 HAHA_LOSSES_INSTANTIATE(float)

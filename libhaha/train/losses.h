@@ -109,6 +109,16 @@ enum class OpacityRegMode { SumSquares, MeanAbs };
 template <class T>
 T opacity_reg(const T* opacity, int64_t n, OpacityRegMode mode, T* grad = nullptr, T grad_scale = T(1));
 
+// ---- Stretch regulariser ---------------------------------------------------------------
+// What the Gaussians of faces that stretch with the arms may do (train/face_stretch.h):
+//   L = mean_i stretch[face_i] * (|offset_i|^2 + |scale_i|^2)
+// face (n) parent faces, stretch (F) per-face weights >= 0, offset (n, 3) local means and
+// scale (n, 3) activated local scales, both in units of the face scale k. grad_offset /
+// grad_scale (either may be null) get grad_k * dL/d(.) added. n = 0 gives 0.
+template <class T>
+T stretch_reg(const int32_t* face, const float* stretch, const T* offset, const T* scale, int64_t n,
+              T* grad_offset = nullptr, T* grad_scale = nullptr, T grad_k = T(1));
+
 // ---- KNN regulariser ----------------------------------------------------------------------
 // For each Gaussian i, its set is row i of `sets` (n, K) — the release queries the posed
 // centres against themselves (pytorch3d knn_points, K = 3), so the row is i itself and its

@@ -162,6 +162,18 @@ __global__ void opacity_grad_kernel(const float* o, int64_t n, OpacityRegMode mo
   if (i < n) loss::opacity_reg_grad_item(o, i, mode, k, grad);
 }
 
+__global__ void stretch_value_kernel(const int32_t* face, const float* stretch, const float* offset, const float* scale,
+                                     int64_t n, double* sum) {
+  const int64_t i = global_index();
+  block_sum_atomic(i < n ? loss::stretch_reg_value_item(face, stretch, offset, scale, i) : 0.0, sum);
+}
+
+__global__ void stretch_grad_kernel(const int32_t* face, const float* stretch, const float* offset, const float* scale,
+                                    int64_t n, float k, float* grad_offset, float* grad_scale) {
+  const int64_t i = global_index();
+  if (i < n) loss::stretch_reg_grad_item(face, stretch, offset, scale, i, k, grad_offset, grad_scale);
+}
+
 }  // namespace
 
 float dice_loss_cuda(const float* p, const float* t, int64_t n, LossCudaScratch& s, float* grad, float grad_scale) {
@@ -254,6 +266,17 @@ float edge_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScrat
               s.sums.data());
   if (grad) HAHA_LAUNCH(edge_grad_kernel, P, detail::kThreads, 0, dgx, dgy, H, W, grad_scale, grad);
   return float(read_sum(s) / wsum);
+}
+
+float stretch_reg_cuda(const int32_t* face, const float* stretch, const float* offset, const float* scale, int64_t n,
+                       LossCudaScratch& s, float* grad_offset, float* grad_scale, float grad_k) {
+  if (n <= 0) return 0.0f;
+  s.sums.assign_zero(4);
+  HAHA_LAUNCH(stretch_value_kernel, n, detail::kThreads, 0, face, stretch, offset, scale, n, s.sums.data());
+  if (grad_offset || grad_scale)
+    HAHA_LAUNCH(stretch_grad_kernel, n, detail::kThreads, 0, face, stretch, offset, scale, n, grad_k / float(n),
+                grad_offset, grad_scale);
+  return float(read_sum(s) / double(n));
 }
 
 }  // namespace haha::cuda

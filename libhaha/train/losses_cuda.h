@@ -27,7 +27,7 @@ float ssim_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScrat
 float edge_loss_cuda(const float* x, const float* y, int H, int W, LossCudaScratch& scratch,
                      const float* weights = nullptr, float* grad = nullptr, float grad_scale = 1.0f);
 
-// Dice, texture TV and the opacity regulariser (train/losses.h) with the per-element
+// Dice, texture TV, the opacity and stretch regularisers (train/losses.h) with the per-element
 // kernels of train/loss_kernels.h; device pointers, gradients ADDED; each reads its sums
 // back once (synchronises).
 float dice_loss_cuda(const float* p, const float* t, int64_t n, LossCudaScratch& scratch, float* grad = nullptr,
@@ -36,5 +36,9 @@ float texture_tv_loss_cuda(const float* tex, int H, int W, int C, LossCudaScratc
                            float grad_scale = 1.0f);
 float opacity_reg_cuda(const float* opacity, int64_t n, OpacityRegMode mode, LossCudaScratch& scratch,
                        float* grad = nullptr, float grad_scale = 1.0f);
+// face, stretch (per face), offset, scale: device arrays as in stretch_reg.
+float stretch_reg_cuda(const int32_t* face, const float* stretch, const float* offset, const float* scale, int64_t n,
+                       LossCudaScratch& scratch, float* grad_offset = nullptr, float* grad_scale = nullptr,
+                       float grad_k = 1.0f);
 
 }  // namespace haha::cuda

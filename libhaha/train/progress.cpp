@@ -56,6 +56,7 @@ std::string progress_line(const StepReport& r, double rate, double eta) {
   add("dice", l.dice);
   add("tv", l.tv);
   add("opac", l.opacity);
+  add("stretch", l.stretch);
   std::snprintf(buf, sizeof buf, "[stage %d] %d/%d loss %.5f (%s) G %d | %.2f it/s | ETA %s%s", r.stage, r.step,
                 r.steps, l.total, parts.empty() ? "" : parts.c_str() + 1, r.gaussians, rate, format_duration(eta).c_str(),
                 r.skipped ? " | SKIPPED (non-finite)" : "");

@@ -57,6 +57,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
   std::vector<DeviceBuffer<float>> rgb, mask;  // per training frame
   // ---- state (device copies of the host's) ----
   DeviceBuffer<int32_t> face, knn;
+  DeviceBuffer<float> face_stretch;  // per body face, uploaded at first use
   DeviceBuffer<float> offset, rotation, scale_logit, color_logit, opacity_logit, grad_accum, grad_count, texture;
   // ---- derived / scratch ----
   std::vector<DeviceBuffer<float>> frame_verts;  // stage 3: the frozen posed bodies
@@ -308,6 +309,13 @@ struct Trainer::Impl::Cuda : TrainerDevice {
         lbs.backward(view_of(fp), lcache, d_verts.data(), nullptr, sg);
         t.add_pose_grad(fi, sg);
       }
+    }
+    if (w.stretch > 0) {  // once per batch, on the parameters
+      if (face_stretch.empty()) face_stretch.upload(t.face_stretch);
+      const double v = cuda::stretch_reg_cuda(face.data(), face_stretch.data(), offset.data(), scale.data(), n, ls,
+                                              d_offset.data(), d_scale.data(), float(w.stretch));
+      terms.stretch += v;
+      terms.total += w.stretch * v;
     }
     if (w.knn > 0 && n > 1) cuda::normalize_quats_backward_add_cuda(rotation.data(), d_rot_unit.data(), n, d_rotation.data());
     d_scale_logit.resize(3 * size_t(n));

@@ -25,6 +25,7 @@
 #include "render/mesh_raster.h"
 #include "render/texture.h"
 #include "train/adam.h"
+#include "train/face_stretch.h"
 #include "train/gaussian_params.h"
 #include "train/knn.h"
 #include "train/losses.h"
@@ -73,6 +74,9 @@ struct Trainer::Impl {
   Adam adam;
   std::vector<float> grad_accum, grad_count;  // densification statistics
   std::vector<int32_t> knn_idx;
+  // Per face: how much it stretches as the arms move (train/face_stretch.h); set up only
+  // when the stretch regulariser is on.
+  std::vector<float> face_stretch;
   std::array<double, 3> seconds{0, 0, 0};
   int64_t skipped = 0;
   int nan_streak = 0;
@@ -189,6 +193,8 @@ struct Trainer::Impl {
     betas.assign(nb, 0.0f);
     for (const TrainFrame& f : in.frames)
       for (size_t k = 0; k < std::min(nb, f.params.betas.size()); ++k) betas[k] += f.params.betas[k] / float(nf);
+    // From the fits' betas (not the refined ones), so a resumed run sees the same weights.
+    if (cfg.s1.w.stretch > 0) face_stretch = face_arm_stretch(body, betas, float(cfg.face_scale_divisor));
     params.clear();
     for (const TrainFrame& f : in.frames) {
       SmplxParams p = f.params;

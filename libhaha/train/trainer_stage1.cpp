@@ -165,6 +165,12 @@ bool Trainer::Impl::step1(LossTerms& terms, std::string& event) {
       if (rbuf.raster.radii[size_t(i)] > 0) grad_count[size_t(i)] += 1.0f;
     if (cfg.s1.refine_pose) accumulate_pose_grad(fi);
   }
+  if (w.stretch > 0) {  // once per batch, on the parameters (not a per-frame term)
+    const double v = stretch_reg(g.face.data(), face_stretch.data(), g.offset.data(), act.scale.data(), n,
+                                 d_offset.data(), d_scale.data(), float(w.stretch));
+    terms.stretch += v;
+    terms.total += w.stretch * v;
+  }
   if (!rot_unit.empty() && !d_rot_unit.empty() && w.knn > 0 && n > 1)
     for (int i = 0; i < n; ++i) {
       float dr[4];

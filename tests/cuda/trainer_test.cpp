@@ -175,7 +175,7 @@ void expect_loss_close(const LossTerms& cpu, const LossTerms& gpu) {
   const std::pair<const char*, std::pair<double, double>> terms[] = {
       {"total", {cpu.total, gpu.total}}, {"l2", {cpu.l2, gpu.l2}},       {"ssim", {cpu.ssim, gpu.ssim}},
       {"sobel", {cpu.sobel, gpu.sobel}}, {"knn", {cpu.knn, gpu.knn}},   {"dice", {cpu.dice, gpu.dice}},
-      {"tv", {cpu.tv, gpu.tv}},          {"opacity", {cpu.opacity, gpu.opacity}}};
+      {"tv", {cpu.tv, gpu.tv}},          {"opacity", {cpu.opacity, gpu.opacity}}, {"stretch", {cpu.stretch, gpu.stretch}}};
   for (const auto& [name, v] : terms)
     EXPECT_LE(std::fabs(v.second - v.first), kLossRel * std::fabs(v.first) + 1e-9)
         << name << ": cpu " << v.first << " gpu " << v.second;
@@ -285,6 +285,7 @@ TEST(CudaTrainer, NoGpuIsOneLineError) {
 TrainConfig long_stage1_config() {
   TrainConfig c = step_config();
   c.s1.steps = 30;
+  c.s1.w.stretch = 100;  // off by default; on here so that both trainers' versions are compared
   return c;
 }
 
@@ -295,6 +296,7 @@ TEST(CudaTrainer, Stage1StepMatchesCpu) {
   const StepResult cpu = expect_one_step_close(c, 64, start, 1);
   EXPECT_GT(cpu.report.loss.knn, 0.0);
   EXPECT_GT(cpu.report.loss.dice, 0.0);
+  EXPECT_GT(cpu.report.loss.stretch, 0.0);
 }
 
 // Step 20 of stage 1 with one loss term at a time, without and with pose refinement, so
@@ -306,6 +308,7 @@ TEST(CudaTrainer, Stage1StepTermByTerm) {
                                                                  {"sobel", &LossWeights::sobel},
                                                                  {"knn", &LossWeights::knn},
                                                                  {"dice", &LossWeights::dice},
+                                                                 {"stretch", &LossWeights::stretch},
                                                                  {"all", nullptr}};
   for (const bool refine : {false, true})
     for (const auto& [name, field] : terms) {
@@ -314,7 +317,7 @@ TEST(CudaTrainer, Stage1StepTermByTerm) {
       c.s1.refine_pose = refine;
       if (field) {
         const LossWeights all = c.s1.w;
-        c.s1.w = LossWeights{0, 0, 0, 0, 0, 0, 0, 0};
+        c.s1.w = LossWeights{0, 0, 0, 0, 0, 0, 0, 0, 0};
         c.s1.w.*field = all.*field;
       }
       expect_one_step_close(c, 64, cpu_checkpoint(c, 64, 1, 20), 1);

@@ -334,6 +334,52 @@ TEST(OpacityReg, KnownValues) {
   EXPECT_EQ(g[2], 0.0);  // subgradient at 0
 }
 
+// ---- stretch regulariser ------------------------------------------------------------------------------
+
+namespace {
+struct StretchCase {
+  int64_t n = 31;
+  std::vector<int32_t> face;
+  std::vector<float> stretch = {0.0f, 0.3f, 1.2f, 0.05f};  // face 0 does not stretch
+  std::vector<double> offset, scale;
+  explicit StretchCase(unsigned seed) {
+    for (int64_t i = 0; i < n; ++i) face.push_back(int32_t(i % 4));
+    offset = random_vec(size_t(3 * n), seed, -1.0, 1.0);
+    scale = random_vec(size_t(3 * n), seed + 1, 0.001, 0.1);
+  }
+  double value() { return stretch_reg<double>(face.data(), stretch.data(), offset.data(), scale.data(), n); }
+};
+}  // namespace
+
+TEST(StretchReg, GradientMatchesFiniteDifferencesForOffsetsAndScales) {
+  StretchCase c(31);
+  std::vector<double> go(c.offset.size(), 0.0), gs(c.scale.size(), 0.0);
+  stretch_reg<double>(c.face.data(), c.stretch.data(), c.offset.data(), c.scale.data(), c.n, go.data(), gs.data());
+  check_gradient(c.offset, [&] { return c.value(); }, go, "stretch_offset");
+  check_gradient(c.scale, [&] { return c.value(); }, gs, "stretch_scale");
+}
+
+TEST(StretchReg, KnownValueAndNonStretchingFacesAreFree) {
+  std::vector<int32_t> face = {0, 1};
+  std::vector<float> stretch = {0.0f, 0.5f};
+  std::vector<double> offset = {3, 4, 0, 1, 2, 2}, scale = {9, 9, 9, 0.1, 0.2, 0.2};
+  // Gaussian 0 sits on a face that does not stretch: nothing, whatever its size.
+  EXPECT_NEAR(stretch_reg<double>(face.data(), stretch.data(), offset.data(), scale.data(), 2),
+              0.5 * (1 + 4 + 4 + 0.01 + 0.04 + 0.04) / 2, 1e-15);
+  std::vector<double> go(6, 0.0), gs(6, 0.0);
+  stretch_reg<double>(face.data(), stretch.data(), offset.data(), scale.data(), 2, go.data(), gs.data(), 2.0);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(go[size_t(c)], 0.0);
+    EXPECT_EQ(gs[size_t(c)], 0.0);
+    EXPECT_NEAR(go[size_t(3 + c)], 2.0 * 0.5 * 2 * offset[size_t(3 + c)] / 2, 1e-15);  // grad_k * w * 2 x / n
+  }
+  // Only one of the two gradients asked for; no Gaussians at all.
+  std::vector<double> g2(6, 0.0);
+  stretch_reg<double>(face.data(), stretch.data(), offset.data(), scale.data(), 2, nullptr, g2.data());
+  for (size_t i = 0; i < 6; ++i) EXPECT_NEAR(g2[i], 0.5 * gs[i], 1e-15) << "grad_k 1 vs 2, value " << i;
+  EXPECT_EQ(stretch_reg<double>(face.data(), stretch.data(), offset.data(), scale.data(), 0), 0.0);
+}
+
 // ---- KNN regulariser ------------------------------------------------------------------------------------
 
 namespace {
