@@ -18,8 +18,8 @@
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
 #include "train/device.h"
-#include "train/progress.h"
 #include "train/silhouette_fit.h"
+#include "train/train_loop.h"
 
 namespace haha {
 
@@ -119,30 +119,30 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   }
 
   TrainRunResult res;
-  TrainProgress progress(cfg, trainer.step_in_stage());
-  while (!trainer.done()) {
-    if (opt.stop_after >= 0 && res.steps_run >= opt.stop_after) break;
+  TrainLoopHooks hooks;
+  hooks.stop = [&](int64_t steps_run) {
+    if (opt.stop_after >= 0 && steps_run >= opt.stop_after) return true;
     if (interrupted()) {  // SIGTERM / SIGINT where the caller installed core/interrupt.h's handler
       write_checkpoint(ck_path, trainer.save());
       log("interrupted at stage " + std::to_string(trainer.stage()) + " step " + std::to_string(trainer.step_in_stage()) +
           " (checkpoint written; continue with --resume)");
       throw Error("interrupted");
     }
-    const StepReport r = trainer.step();
-    ++res.steps_run;
-    const bool stage_end = trainer.stage() != r.stage;
-    progress.update(r, stage_end);
-    if (r.step % cfg.log_every == 0 || stage_end || !r.event.empty() || r.skipped) {
-      log(progress_line(r, progress.rate(), progress.eta()));
-      if (!r.event.empty()) log("  " + r.event);
-    }
+    return false;
+  };
+  hooks.print_line = [&](const StepReport& r, bool stage_end) {
+    return r.step % cfg.log_every == 0 || stage_end || !r.event.empty() || r.skipped;
+  };
+  hooks.log = log;
+  hooks.after_step = [&](const StepReport& r, bool stage_end) {
     if (stage_end) {
       write_checkpoint(run.stage_checkpoint(r.stage), trainer.save());
       write_checkpoint(ck_path, trainer.save());
     } else if (cfg.checkpoint_every > 0 && r.step % cfg.checkpoint_every == 0) {
       write_checkpoint(ck_path, trainer.save());
     }
-  }
+  };
+  res.steps_run = run_train_loop(trainer, hooks);
   res.finished = trainer.done();
   res.gaussians = trainer.num_gaussians();
   res.stage_seconds = trainer.stage_seconds();

@@ -24,9 +24,9 @@
 #include "train/config.h"
 #include "train/device.h"
 #include "train/evaluate.h"
-#include "train/progress.h"
 #include "train/silhouette_fit.h"
 #include "train/train_frame.h"
+#include "train/train_loop.h"
 #include "train/trainer.h"
 
 namespace haha {
@@ -254,21 +254,23 @@ int run(const Options& o) {
 
   StageRow stages[3] = {{"1 Gaussians", cfg.s1.steps}, {"2 texture", cfg.s2.steps}, {"3 filtering", cfg.s3.steps}};
   const int64_t total = cfg.total_steps();
-  TrainProgress progress(cfg, 0);
   auto last_line = Clock::now();
-  while (!trainer.done()) {
-    const StepReport r = trainer.step();
-    const bool stage_end = trainer.stage() != r.stage;
-    progress.update(r, stage_end);
-    if (stage_end) stages[r.stage - 1].gaussians = r.gaussians;
+  TrainLoopHooks hooks;
+  hooks.print_line = [&](const StepReport&, bool stage_end) {  // every twentieth of the run, and every 10 s
     const int64_t done = trainer.completed_steps();
     const bool twentieth = (done * 20) / total != ((done - 1) * 20) / total;
-    if (twentieth || stage_end || seconds_since(last_line) >= 10) {
-      std::printf("%s\n", progress_line(r, progress.rate(), progress.eta()).c_str());
-      std::fflush(stdout);
-      last_line = Clock::now();
-    }
-  }
+    if (!(twentieth || stage_end || seconds_since(last_line) >= 10)) return false;
+    last_line = Clock::now();
+    return true;
+  };
+  hooks.log = [](const std::string& line) {
+    std::printf("%s\n", line.c_str());
+    std::fflush(stdout);
+  };
+  hooks.after_step = [&](const StepReport& r, bool stage_end) {
+    if (stage_end) stages[r.stage - 1].gaussians = r.gaussians;
+  };
+  run_train_loop(trainer, hooks);
   // A stage of 0 steps ends without a step of its own: its count is the previous stage's.
   for (int s = 0; s < 3; ++s) {
     stages[s].seconds = trainer.stage_seconds()[size_t(s)];
