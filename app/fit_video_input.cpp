@@ -222,15 +222,7 @@ InputFrames prepare_input_frames(const std::string& input, const std::string& wo
     // Re-encoded as RGB PNG: one format for the tool and the dataset, each file checked.
     for (size_t k = 0; k < sel.size(); ++k) {
       const fs::path& src = all[size_t(sel[k])];
-      Image img = read_image(src.string());
-      if (img.channels != 3) {
-        Image rgb(img.width, img.height, 3);
-        for (int y = 0; y < img.height; ++y)
-          for (int x = 0; x < img.width; ++x)
-            for (int c = 0; c < 3; ++c) rgb.at(x, y, c) = img.at(x, y, img.channels >= 3 ? c : 0);
-        img = std::move(rgb);
-      }
-      write_image(frame_path(k), img);
+      write_image(frame_path(k), to_rgb(read_image(src.string()), src.string()));
       f.source_index.push_back(sel[k]);
       f.names.push_back(src.filename().string());
       f.paths.push_back(frame_path(k));

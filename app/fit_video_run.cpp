@@ -54,14 +54,7 @@ void check_fit_result(const FitVideoResult& r, int n, int width, int height) {
 }
 
 // A frame as RGB (the work frames are RGB PNGs; a grey or RGBA one is taken as it comes).
-Image frame_rgb(const std::string& path) {
-  Image img = read_image(path);
-  if (img.channels == 3) return img;
-  Image out(img.width, img.height, 3);
-  for (size_t p = 0; p < size_t(img.width) * img.height; ++p)
-    for (int c = 0; c < 3; ++c) out.data[p * 3 + c] = img.data[p * size_t(img.channels) + (img.channels >= 3 ? c : 0)];
-  return out;
-}
+Image frame_rgb(const std::string& path) { return to_rgb(read_image(path), path); }
 
 // The plate keeps 8-bit copies of its frames (4 bytes a pixel): at most this many bytes,
 // the frames spread evenly over the video beyond it (about 100 frames of 1280x720).

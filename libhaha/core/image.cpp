@@ -44,6 +44,17 @@ Image resize_area(const Image& src, int w, int h) {
   return out;
 }
 
+Image to_rgb(Image img, const std::string& where) {
+  if (img.channels == 3) return img;
+  if (img.channels < 1 || img.channels > 4)
+    fail(where, "image has " + std::to_string(img.channels) + " channels, expected RGB");
+  Image out(img.width, img.height, 3);
+  const size_t n = size_t(img.width) * size_t(img.height), ch = size_t(img.channels);
+  for (size_t p = 0; p < n; ++p)
+    for (size_t c = 0; c < 3; ++c) out.data[p * 3 + c] = img.data[p * ch + (ch >= 3 ? c : 0)];
+  return out;
+}
+
 Image crop(const Image& src, int x0, int y0, int w, int h) {
   if (x0 < 0 || y0 < 0 || w <= 0 || h <= 0 || x0 + w > src.width || y0 + h > src.height)
     throw Error("crop: rectangle outside the image");

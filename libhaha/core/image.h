@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace haha {
@@ -21,6 +22,10 @@ struct Image {
 // Area-weighted resampling: each output pixel is the exact average of the source area it
 // covers (pixel-edge convention, so pixel coordinates scale by w/src.width, h/src.height).
 Image resize_area(const Image& src, int w, int h);
+
+// RGB from 1 (grey), 2 (grey + alpha: the grey), 3 or 4 (alpha dropped) channels. Throws
+// haha::Error "<where>: image has N channels, expected RGB" for any other count.
+Image to_rgb(Image img, const std::string& where);
 
 // Sub-rectangle [x0, x0 + w) x [y0, y0 + h); must lie inside the image.
 Image crop(const Image& src, int x0, int y0, int w, int h);

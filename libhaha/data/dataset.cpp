@@ -87,18 +87,6 @@ void check_finite(const SmplxParams& p, const std::string& where) {
     fail(where, "non-finite SMPL-X parameter");
 }
 
-// RGB from 1 (grey), 3 or 4 (alpha dropped) channels.
-Image to_rgb(Image img, const std::string& where) {
-  if (img.channels == 3) return img;
-  if (img.channels != 1 && img.channels != 4 && img.channels != 2)
-    fail(where, "image has " + std::to_string(img.channels) + " channels, expected RGB");
-  Image out(img.width, img.height, 3);
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x)
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = img.at(x, y, img.channels >= 3 ? c : 0);
-  return out;
-}
-
 // Pixels must be finite and, where the dataset's contract says so (frames and masks read
 // from a dataset: RGB and coverage in [0, 1]), within [0, 1]; a float image (EXR, TIFF)
 // can hold anything. The first offending pixel is named.

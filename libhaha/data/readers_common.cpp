@@ -203,16 +203,7 @@ Image read_mask_file(const std::string& path) {
   return m;
 }
 
-Image read_rgb(const std::string& path) {
-  Image img = read_image(path);
-  if (img.channels == 3) return img;
-  if (img.channels > 4) fail(path, "image has " + std::to_string(img.channels) + " channels, expected RGB");
-  Image out(img.width, img.height, 3);
-  for (int y = 0; y < img.height; ++y)
-    for (int x = 0; x < img.width; ++x)
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = img.at(x, y, img.channels >= 3 ? c : 0);
-  return out;
-}
+Image read_rgb(const std::string& path) { return to_rgb(read_image(path), path); }
 
 std::vector<int> subsample(const std::vector<int>& frames, int every, int max_frames) {
   std::vector<int> out;

@@ -1,6 +1,7 @@
 // Images in memory (libhaha/core/image.h): area resampling (block means, the mean kept at
 // any ratio, identity, up- and downscaling to odd sizes, one pixel), crops (inside, whole,
-// corners, outside), rounding to what an 8-bit file holds.
+// corners, outside), rounding to what an 8-bit file holds, RGB from any channel count a
+// file may hold.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -132,6 +133,32 @@ TEST(ImageRound, To8BitClampsAndRoundsToTheNearestCode) {
   const Image once = img;
   round_to_8bit(img);
   EXPECT_EQ(img.data, once.data);
+}
+
+TEST(ImageToRgb, GreyGreyAlphaRgbAndRgbaBecomeRgbAndOtherCountsAreErrors) {
+  for (int ch : {1, 2, 3, 4}) {
+    Image img(2, 1, ch);
+    for (size_t i = 0; i < img.data.size(); ++i) img.data[i] = 0.1f * float(i + 1);
+    const Image rgb = to_rgb(img, "x.png");
+    ASSERT_EQ(rgb.channels, 3);
+    ASSERT_EQ(rgb.width, 2);
+    for (int x = 0; x < 2; ++x)
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ(rgb.at(x, 0, c), img.at(x, 0, ch >= 3 ? c : 0)) << ch << " channels, pixel " << x << " channel " << c;
+  }
+  for (int ch : {0, 5}) {
+    Image img;
+    img.width = img.height = 1;
+    img.channels = ch;
+    img.data.assign(size_t(ch), 0.5f);
+    try {
+      to_rgb(img, "x.exr");
+      ADD_FAILURE() << ch << " channels accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("x.exr"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::to_string(ch) + " channels"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
