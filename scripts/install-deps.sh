@@ -39,26 +39,30 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 [ "${HAHA_BUILD_ONLY:-0}" = 1 ] && exit 0
-# The Khronos glTF validator (npm, pinned by tools/validator/package-lock.json) for the format tests.
-if [ ! -d "$(dirname "$0")/../tools/validator/node_modules/gltf-validator" ]; then
-  npm ci --prefix "$(dirname "$0")/../tools/validator" --no-audit --no-fund --loglevel=error >/dev/null
-fi
+# The npm packages of DIR as its package-lock.json pins them: installed when MARKER (a path
+# under DIR/node_modules) is missing, or when the lock file is newer than what npm last
+# installed there (a checkout that changed a pin).
+npm_packages() {
+  local dir="$(dirname "$0")/../$1"
+  if [ ! -e "$dir/node_modules/$2" ] || [ "$dir/package-lock.json" -nt "$dir/node_modules/.package-lock.json" ]; then
+    npm ci --prefix "$dir" --no-audit --no-fund --loglevel=error >/dev/null
+  fi
+}
+# The Khronos glTF validator for the format tests.
+npm_packages tools/validator gltf-validator
 # The keypoint + mask tool of `haha fit-video` (tools/keypoints: TF.js wasm and the MediaPipe
 # models, pinned; ~350 MB). HAHA_NO_KEYPOINTS=1 leaves it out (its test then skips).
 if [ "${HAHA_NO_KEYPOINTS:-0}" != 1 ]; then
   bash "$(dirname "$0")/setup-keypoints.sh"
 fi
-# The web viewer's pinned npm packages (three, fflate; playwright-core, pngjs for its test).
-if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../samples/web/node_modules/playwright-core" ]; then
-  npm ci --prefix "$(dirname "$0")/../samples/web" --no-audit --no-fund --loglevel=error >/dev/null
-fi
-# The loader plugins of format/js (three, babylonjs + babylonjs-loaders; playwright-core,
-# pngjs for their browser tests; pinned by format/js/package-lock.json).
-if [ "${HAHA_NO_BROWSER:-0}" != 1 ] && [ ! -d "$(dirname "$0")/../format/js/node_modules/babylonjs-loaders" ]; then
-  npm ci --prefix "$(dirname "$0")/../format/js" --no-audit --no-fund --loglevel=error >/dev/null
+# The web viewer's packages (three, fflate; playwright-core, pngjs for its test) and the
+# loader plugins' of format/js (three, babylonjs + babylonjs-loaders; playwright-core, pngjs
+# for their browser tests). playwright-core stays at 1.61, the last release that runs on
+# Debian 12's Node.js 18.
+if [ "${HAHA_NO_BROWSER:-0}" != 1 ]; then
+  npm_packages samples/web playwright-core
+  npm_packages format/js babylonjs-loaders
 fi
 # The glTF-Transform extension class of HAHA_gaussian_avatar and its test (format/js/gltf-transform:
-# @gltf-transform/core + extensions, draco3dgltf, pngjs; pinned by its package-lock.json).
-if [ ! -d "$(dirname "$0")/../format/js/gltf-transform/node_modules/@gltf-transform/core" ]; then
-  npm ci --prefix "$(dirname "$0")/../format/js/gltf-transform" --no-audit --no-fund --loglevel=error >/dev/null
-fi
+# @gltf-transform/core + extensions, draco3dgltf, pngjs).
+npm_packages format/js/gltf-transform @gltf-transform/core

