@@ -10,10 +10,17 @@
 #include "data/xhumans_take.h"
 
 namespace haha {
+namespace {
+
+// When run_synth started; a file-level clock because write_synth_dataset's progress
+// callback is a plain function pointer.
+std::chrono::steady_clock::time_point synth_start;
+double seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now() - synth_start).count(); }
+
+}  // namespace
 
 void run_synth(const SynthRunOptions& a) {
-  const auto t0 = std::chrono::steady_clock::now();
-  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  synth_start = std::chrono::steady_clock::now();
   if (!(a.fit_noise >= 0 && a.fit_noise <= 1)) fail("--fit-noise", "must be in [0, 1]");
   SynthOptions o = a.synth;
   o.fit_noise.pose = a.fit_noise_pose.value_or(a.fit_noise);
@@ -23,10 +30,8 @@ void run_synth(const SynthRunOptions& a) {
     fail("--body-resolution", "unknown value '" + a.resolution + "' (expected low or full)");
   const BodyModel body = synth_body(a.body, parse_body_resolution(a.resolution), o.seed);
   std::printf("  body: %d vertices (%s), %.2f s\n", body.num_verts, body.source.c_str(), seconds());
-  static std::chrono::steady_clock::time_point start;  // the progress callback is a plain function
-  start = t0;
   const SynthSummary s = write_synth_dataset(a.out, body, o, a.body.empty(), [](const std::string& line) {
-    std::printf("  %s, %.2f s\n", line.c_str(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    std::printf("  %s, %.2f s\n", line.c_str(), seconds());
   });
   if (!a.xhumans.empty()) {
     Dataset ds = read_dataset(a.out, LoadPixels::headers);
