@@ -68,8 +68,22 @@ struct SsimTaps {
 template <class T>
 void blur_rows(const T* in, T* out, int H, int W, int n) {
   const SsimTaps<T> taps;
-  par_for(int64_t(n) * H, int64_t(W) * kSsimWindow,
-          [&](int64_t row) { loss::blur_row_span(in + row * W, W, 0, W, taps.g, out + row * W); });
+  constexpr int R = loss::kSsimRadius;
+  par_for(int64_t(n) * H, int64_t(W) * kSsimWindow, [&](int64_t row) {
+    const T* a = in + row * W;
+    T* b = out + row * W;
+    if (W <= 2 * R) return loss::blur_row_span(a, W, 0, W, taps.g, b);
+    loss::blur_row_span(a, W, 0, R, taps.g, b);
+    loss::blur_row_span(a, W, W - R, W, taps.g, b);
+    // The columns whose window lies inside the row, tap by tap so the loop over x
+    // vectorises; the same sums in the same order as blur_row_span.
+    for (int x = R; x < W - R; ++x) b[x] = T(0);
+    for (int k = 0; k < kSsimWindow; ++k) {
+      const T gk = taps.g[k];
+      const T* src = a + k - R;
+      for (int x = R; x < W - R; ++x) b[x] += gk * src[x];
+    }
+  });
 }
 
 // Vertical pass; the inner loop runs along a row so it vectorises.
@@ -258,7 +272,19 @@ T texture_tv_loss(const T* tex, int H, int W, int C, T* grad, T grad_scale) {
   if (grad) {
     const T k = T(1.0 / count) * grad_scale;
     par_for(H, 8 * rs, [&](int64_t r) {
-      for (int64_t i = 0; i < rs; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
+      if (r == 0 || r + 1 >= H || rs <= 2 * int64_t(C)) {
+        for (int64_t i = 0; i < rs; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
+        return;
+      }
+      for (int64_t i = 0; i < C; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
+      for (int64_t i = rs - C; i < rs; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
+      // Inside the texture all four neighbours exist: tv_grad_item's value without its
+      // branches, so the loop vectorises (signs are exact small integers: same result).
+      const T* a = tex + r * rs;
+      T* gr = grad + r * rs;
+      auto sgn = [](T v) { return T(v > T(0)) - T(v < T(0)); };
+      for (int64_t i = C; i < rs - C; ++i)
+        gr[i] += k * (sgn(a[i] - a[i - C]) - sgn(a[i + C] - a[i]) + sgn(a[i] - a[i - rs]) - sgn(a[i + rs] - a[i]));
     });
   }
   return T(sum / count);
