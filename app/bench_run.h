@@ -27,6 +27,7 @@ struct BenchRunOptions {
   std::string mesh_bit_sets;    // extra packing points: mesh Draco bits, ';'-separated
   std::string corrective_sets;  // extra packing points: pose-corrective codecs, ';'-separated
   int frames = 0, tto_steps = 0, repeats = 5, count_resolution = 512, retrain_steps = 0;
+  int resolution = 0;  // longer side of the frames quality is measured on; 0: the run's training size
 };
 
 // Measures, writes OUT/bench.json, bench.md and the plots, prints progress lines, and

@@ -49,6 +49,9 @@ std::string eval_report_json(const EvalReport& r) {
   j["background"] = r.background;
   j["preset"] = r.preset;
   j["tto_steps"] = r.tto_steps;
+  j["tto_resolution"] = r.tto_resolution;
+  j["resolution"] = {r.width, r.height};
+  j["train_resolution"] = r.train_resolution;
   j["antialias"] = r.antialias;
   j["lpips"] = r.lpips_available ? ojson("AlexNet (user-supplied weights)") : ojson(kLpipsUnavailable);
   j["switches"] = r.switches;
@@ -110,8 +113,12 @@ std::string eval_report_markdown(const EvalReport& r) {
   std::string s;
   s += "# HAHA evaluation: " + r.run_dir + "\n\n";
   s += "Data: `" + r.data_dir + "`, split " + r.split + ", " + std::to_string(r.frame_names.size()) +
-       " frames, background " + r.background + ", test-time pose optimisation " + std::to_string(r.tto_steps) +
-       " steps" + (r.antialias ? std::string(", antialiased mesh silhouette") : std::string()) + ", preset " +
+       " frames scored at " + std::to_string(r.width) + "x" + std::to_string(r.height) + " px (trained at " +
+       std::to_string(r.train_resolution) + " px on the longer side), background " + r.background + ", test-time pose optimisation " + std::to_string(r.tto_steps) +
+       " steps" +
+       (r.tto_steps > 0 && r.tto_resolution > 0 && r.tto_resolution < std::max(r.width, r.height)
+            ? " at " + std::to_string(r.tto_resolution) + " px"
+            : std::string()) + (r.antialias ? std::string(", antialiased mesh silhouette") : std::string()) + ", preset " +
        r.preset + ".\n";
   s += "LPIPS: " + std::string(r.lpips_available ? "AlexNet, user-supplied weights" : kLpipsUnavailable) + ".\n";
   if (!r.switches.empty()) {
@@ -216,7 +223,8 @@ void write_eval_contact_sheet(const std::string& path, const EvalReport& r, int 
   if (tiles.empty()) fail(path, "no frame images were kept");
   ContactSheetOptions o;
   o.columns = full ? 6 : 5;
-  o.title = "GT | HAHA | ERROR | GAUSSIAN LAYER | MESH ONLY | FULL GAUSSIANS   (" + fs::path(r.run_dir).filename().string() + ")";
+  o.title = "GT | HAHA | ERROR | GAUSSIAN LAYER | MESH ONLY | FULL GAUSSIANS   (" + fs::path(r.run_dir).filename().string() +
+            ", " + std::to_string(width) + "X" + std::to_string(height) + " PX)";
   o.label_scale = width >= 256 ? 2 : 1;
   write_contact_sheet(path, tiles, o);
 }

@@ -14,6 +14,9 @@ namespace haha {
 struct EvalReport {
   std::string run_dir, data_dir, split = "test", background = "black", preset;
   int tto_steps = 0;
+  int tto_resolution = 0;      // test-time pose optimisation at most at this side (0 = as scored)
+  int width = 0, height = 0;   // the size the frames were scored at
+  int train_resolution = 0;    // the longer side the run trained at
   bool antialias = false;  // mesh silhouette antialiased (haha eval --antialias)
   bool lpips_available = false;
   std::vector<std::string> switches;     // e.g. "use_sobel=false"

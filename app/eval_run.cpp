@@ -31,12 +31,15 @@ EvalReport run_eval(const EvalRunOptions& o) {
   const Avatar filtered = load_run_avatar(run);
   const Avatar full = load_stage1_avatar(run, filtered.body);
   Dataset ds = read_dataset(data, LoadPixels::headers);
-  std::vector<TrainFrame> frames = dataset_frames(ds, split, info.config.resolution);
+  if (o.resolution != 0 && (o.resolution < 16 || o.resolution > 8192)) fail("--resolution", "must be 0 or in 16..8192");
+  const int trained_at = train_resolution(info.config, std::max(ds.width, ds.height));
+  std::vector<TrainFrame> frames = dataset_frames(ds, split, o.resolution > 0 ? o.resolution : trained_at);
   if (frames.empty()) fail(data, "no " + o.split + " frames");
   if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
 
   EvalOptions opt;
   opt.tto_steps = o.tto_steps >= 0 ? o.tto_steps : info.config.eval_tto_steps;
+  opt.tto_resolution = o.tto_resolution >= 0 ? o.tto_resolution : info.config.eval_tto_resolution;
   opt.lr_pose = info.config.eval_lr_pose;
   opt.lr_pose_fine = info.config.eval_lr_pose_fine;
   const float bgv = o.background == "white" ? 1.0f : 0.0f;
@@ -64,6 +67,10 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.background = o.background;
   r.preset = info.config.preset;
   r.tto_steps = opt.tto_steps;
+  r.tto_resolution = opt.tto_resolution;
+  r.width = frames[0].camera.width;
+  r.height = frames[0].camera.height;
+  r.train_resolution = trained_at;
   r.antialias = opt.antialias;
   r.lpips_available = alex != nullptr;
   // What the run changed from its preset: the user's keys, and for estimated fits

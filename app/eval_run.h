@@ -17,7 +17,9 @@ struct EvalRunOptions {
   std::string split = "test";        // train | test
   std::string background = "black";  // black | white
   int tto_steps = -1;                // test-time pose optimisation steps; < 0: the run's
+  int tto_resolution = -1;           // longest side it optimises at (0 = as scored); < 0: the run's
   int frames = 0;                    // > 0: only the first N frames of the split
+  int resolution = 0;                // longer side the frames are scored at; 0: the run's training size
   int sheet_frames = 4;              // frames on the contact sheet
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
   bool print_table = true;           // one line per variant on stdout while it runs

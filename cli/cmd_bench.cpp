@@ -15,6 +15,8 @@ HAHA_COMMAND(bench) {
   sub->add_option("--device", o->device, "cpu or cuda (render timings also on the GPU)")->capture_default_str();
   sub->add_option("--split", o->split, "frames the quality numbers are measured on: test or train")->capture_default_str();
   sub->add_option("--frames", o->frames, "use only the first N frames of the split (0 = all)");
+  sub->add_option("--resolution", o->resolution,
+                  "longer side the quality frames are scored at in px (default: the size the run trained at)");
   sub->add_option("--tto-steps", o->tto_steps,
                   "test-time pose optimisation steps per frame and avatar (0: every avatar on the same poses)")
       ->capture_default_str();

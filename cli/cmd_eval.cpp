@@ -22,7 +22,12 @@ HAHA_COMMAND(eval) {
   sub->add_option("--background", r.background, "black or white")->capture_default_str();
   sub->add_option("--tto-steps", r.tto_steps,
                   "test-time pose optimisation steps (default: the run's eval.tto_steps; 0 = off)");
+  sub->add_option("--tto-resolution", r.tto_resolution,
+                  "longer side of the frames test-time pose optimisation sees, downscaled from the scored size "
+                  "(default: the run's eval.tto_resolution; 0 = as scored)");
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
+  sub->add_option("--resolution", r.resolution,
+                  "score at this longer image side in px, any size (default: the size the run trained at)");
   sub->add_option("--sheet-frames", r.sheet_frames, "frames on the contact sheet")->capture_default_str();
   sub->add_option("--lpips-weights", r.lpips_weights, "LPIPS weight file (AlexNet part used); default: the run's");
   auto* aa = sub->add_flag("--antialias", a->antialias,

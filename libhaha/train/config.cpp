@@ -9,6 +9,7 @@
 
 #include "body/avatar.h"
 #include "core/error.h"
+#include "train/levels.h"
 
 namespace haha {
 
@@ -47,6 +48,7 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"preset", K::String, &c.preset, "preset the run started from (informative)"});
   v.push_back({"seed", K::Uint64, &c.seed, "seed of every random choice (frame order, backgrounds, splits)"});
   v.push_back({"resolution", K::Int, &c.resolution, "longer image side for training (0 = dataset's)"});
+  v.push_back({"max_resolution", K::Int, &c.max_resolution, "cap on the longer training side (0 = none)"});
   v.push_back({"batch", K::Int, &c.batch, "frames per step"});
   v.push_back({"face_scale_divisor", K::Double, &c.face_scale_divisor, "face scale k is divided by this"});
   v.push_back({"scale_max", K::Double, &c.scale_max, "scale activation s = scale_max * sigmoid(logit)"});
@@ -96,14 +98,21 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
                "weight of the stretch regulariser: Gaussians of faces that stretch as the arms move stay small and "
                "close to their face (train/face_stretch.h)"});
   v.push_back({"s1.max_gaussians", K::Int, &s1.max_gaussians, "densification stops at this count"});
+  v.push_back({"s1.levels", K::String, &s1.levels,
+               "coarse to fine: shares of the steps per level, coarsest first, each level twice the side of the "
+               "one before, the last at full size (\"6,3,1\"; empty = all at full size)"});
   v.push_back({"s1.knn.k", K::Int, &s1.knn_k, "KNN regulariser set size (self + k-1 neighbours)"});
   v.push_back({"s1.knn.every", K::Int, &s1.knn_every, "steps between neighbour-set updates"});
 
   Stage2Config& s2 = c.s2;
   v.push_back({"s2.steps", K::Int, &s2.steps, "stage 2 steps (texture)"});
   v.push_back({"s2.lr.texture", K::Double, &s2.lr_texture, "texture lr"});
+  v.push_back({"s2.lr.texture_final", K::Double, &s2.lr_texture_final,
+               "texture lr at the stage end, log-linear from s2.lr.texture; 0 = constant"});
   v.push_back({"s2.texture_size", K::Int, &s2.texture_size, "texture side in texels"});
   v.push_back({"s2.init_color", K::Double, &s2.init_color, "initial texture grey level"});
+  v.push_back({"s2.levels", K::String, &s2.levels,
+               "coarse to fine as s1.levels; the texture side halves per coarser level and is upsampled as the images grow"});
   add_weights(v, "s2", s2.w);
 
   Stage3Config& s3 = c.s3;
@@ -115,11 +124,14 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s3.prune_threshold", K::Double, &s3.prune_threshold, "Gaussians below this opacity are deleted"});
   v.push_back({"s3.prune_every", K::Int, &s3.prune_every, "steps between prunes (and at the stage end)"});
   v.push_back({"s3.depth_margin", K::Double, &s3.depth_margin, "depth test margin in metres (0 = exact)"});
+  v.push_back({"s3.levels", K::String, &s3.levels, "coarse to fine as s1.levels"});
 
   v.push_back({"use_sobel", K::Bool, &c.use_sobel, "ablation switch: edge loss"});
   v.push_back({"use_opacity_reg", K::Bool, &c.use_opacity_reg, "ablation switch: opacity regulariser"});
   v.push_back({"use_dice", K::Bool, &c.use_dice, "ablation switch: silhouette Dice"});
   v.push_back({"eval.tto_steps", K::Int, &c.eval_tto_steps, "test-time pose optimisation steps"});
+  v.push_back({"eval.tto_resolution", K::Int, &c.eval_tto_resolution,
+               "test-time pose optimisation on the frames downscaled to at most this longer side (0 = as scored)"});
   v.push_back({"eval.antialias", K::Bool, &c.eval_antialias,
                "antialiased mesh silhouette in evaluation (haha eval --antialias / --no-antialias win)"});
   v.push_back({"eval.lr.pose", K::Double, &c.eval_lr_pose, "test-time body pose / transl lr"});
@@ -155,11 +167,57 @@ std::string config_value_string(const ConfigEntry& e) {
   return "";
 }
 
+const char* preset_names() { return "tiny, standard, paper"; }
+
+namespace {
+
+// Real use on a CPU: the video's size up to 512 px, coarse to fine. Most of stage 1 runs at
+// a quarter and half of the size (a step there costs a sixteenth / a quarter of one at full
+// size), where the Gaussians settle and densify; the finest level sharpens them. The texture
+// doubles with the images up to 1024^2 and gets its share of steps (they are cheap). Stage 3
+// filters at every level too, the finest last, so the choice of what to keep is made at the
+// size the avatar is seen. Rates as tiny's (batch 1, a short schedule).
+TrainConfig standard_preset(TrainConfig c) {
+  c.resolution = 0;
+  c.max_resolution = 512;
+  c.batch = 1;
+  c.checkpoint_every = 250;
+  c.log_every = 50;
+  c.s1.steps = 3000;
+  c.s1.levels = "5,3,2";
+  c.s1.lr_offset_init = 1.6e-3;
+  c.s1.lr_offset_final = 1.6e-5;
+  c.s1.lr_rotation = 1e-2;
+  c.s1.lr_scale = 1e-2;
+  c.s1.lr_color = 2e-2;
+  c.s1.lr_pose = 5e-4;
+  c.s1.lr_pose_fine = 5e-5;
+  c.s1.densify_from = 100;
+  c.s1.densify_until = 2500;
+  c.s1.densify_every = 100;
+  c.s1.max_gaussians = 60000;
+  c.s1.knn_every = 10;
+  c.s2.steps = 3000;
+  c.s2.levels = "1,1,2";
+  c.s2.lr_texture = 0.03;
+  c.s2.texture_size = 1024;
+  c.s3.steps = 1500;
+  c.s3.levels = "2,1,1";
+  c.s3.prune_every = 100;
+  c.eval_tto_steps = 20;
+  c.eval_tto_resolution = 256;
+  c.eval_lr_pose = 3e-3;
+  return c;
+}
+
+}  // namespace
+
 TrainConfig make_preset(const std::string& name) {
   TrainConfig c;
   c.preset = name;
   if (name == "paper") return c;
-  if (name != "tiny") fail("--preset", "unknown preset '" + name + "' (paper, tiny)");
+  if (name == "standard") return standard_preset(c);
+  if (name != "tiny") fail("--preset", "unknown preset '" + name + "' (" + preset_names() + ")");
   // CPU demo: 128 px, one frame per step, a few hundred steps per stage. Learning rates of
   // the Gaussians are raised so that the short schedule moves them as far as the long one.
   c.resolution = 128;
@@ -275,6 +333,10 @@ void validate_config(const TrainConfig& c) {
   }
   need(c.batch >= 1, "batch", "must be >= 1");
   need(c.resolution == 0 || c.resolution >= 16, "resolution", "must be 0 or >= 16");
+  need(c.max_resolution == 0 || c.max_resolution >= 16, "max_resolution", "must be 0 or >= 16");
+  make_level_schedule(c.s1.levels, c.s1.steps, "s1.levels");
+  make_level_schedule(c.s2.levels, c.s2.steps, "s2.levels");
+  make_level_schedule(c.s3.levels, c.s3.steps, "s3.levels");
   need(c.face_scale_divisor > 0, "face_scale_divisor", "must be > 0");
   need(c.scale_max > 0, "scale_max", "must be > 0");
   need(c.s1.opacity > 0 && c.s1.opacity < 1, "s1.opacity", "must be in (0, 1)");
@@ -292,6 +354,11 @@ void validate_config(const TrainConfig& c) {
   need(c.premultiplied == "auto" || c.premultiplied == "true" || c.premultiplied == "false", "premultiplied",
        "must be auto, true or false");
   resolve_estimated_fits(c.fits, "");
+}
+
+int train_resolution(const TrainConfig& c, int data_side) {
+  const int side = c.resolution > 0 ? c.resolution : data_side;
+  return c.max_resolution > 0 ? std::min(side, c.max_resolution) : side;
 }
 
 bool resolve_premultiplied(const std::string& setting, bool data_flag) {

@@ -11,6 +11,9 @@
 //   tiny   the CPU demo: 128 px, batch 1, short stages and proportionally larger learning
 //          rates, sized so that `haha synth` + `haha train` + `haha eval` fit in about ten
 //          minutes on two cores.
+//   standard  real use on a CPU: coarse to fine up to the video's size (longer side capped
+//          at 512 px), most steps at a quarter and half of it, the texture doubling with
+//          the image up to 1024^2 (docs/results.md "Sharp at 512 px").
 #pragma once
 
 #include <cstdint>
@@ -74,6 +77,11 @@ struct Stage1Config {
   double densify_split_div = 1.6;   // split children's scales are divided by this
   double densify_split_std = 0.2;   // split offsets ~ N(0, std * scale), outer side of the face
   int max_gaussians = 200000;
+  // Coarse to fine (train/levels.h): the share of the stage's steps at each level of the
+  // image pyramid, coarsest first, each level twice the previous one's side, the last at the
+  // training resolution ("6,3,1": 60% at a quarter, 30% at half, 10% at full size); empty:
+  // every step at the training resolution.
+  std::string levels;
   int knn_k = 3;
   int knn_every = 1;                // recompute neighbour sets every n steps (and after densify)
 };
@@ -81,8 +89,12 @@ struct Stage1Config {
 struct Stage2Config {
   int steps = 2500;
   double lr_texture = 0.01;
-  int texture_size = 512;
+  // > 0: the texture rate decays log-linearly over the stage to this: Adam moves every texel
+  // by about the rate each step, so a constant rate leaves texels seen rarely speckled.
+  double lr_texture_final = 0;
+  int texture_size = 512;        // at the finest level; halved per coarser level, upsampled as the images grow
   double init_color = 0.5;
+  std::string levels;            // as s1.levels
   LossWeights w{1.0, 0.1, 0.0, 0.01, 0.0, 0.0, 0.01, 0.0};
 };
 
@@ -98,12 +110,14 @@ struct Stage3Config {
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
   double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)
+  std::string levels;            // as s1.levels
 };
 
 struct TrainConfig {
   std::string preset = "paper";
   uint64_t seed = 0;
   int resolution = 544;          // longer image side used for training; 0 = the dataset's
+  int max_resolution = 0;        // and at most this (0 = no cap): train_resolution()
   int batch = 4;                 // frames per step (gradients averaged)
   double face_scale_divisor = 0.05;
   double scale_max = 0.1;        // scale activation: s = scale_max * sigmoid(logit)
@@ -121,6 +135,7 @@ struct TrainConfig {
   bool use_sobel = true, use_opacity_reg = true, use_dice = true;
   // Test-time pose optimisation defaults for `haha eval` (saved with the run).
   int eval_tto_steps = 100;
+  int eval_tto_resolution = 0;   // > 0: test-time pose optimisation on frames at most this size (longer side)
   bool eval_antialias = false;   // antialiased mesh silhouette (haha eval --antialias / --no-antialias win)
   double eval_lr_pose = 3e-3, eval_lr_pose_fine = 3e-4;
   double max_cache_mb = 2048;    // per-frame caches of stages 2 and 3 (posed mesh rasters)
@@ -145,7 +160,10 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c);
 // bools "true"/"false").
 std::string config_value_string(const ConfigEntry& e);
 
-// "paper" or "tiny"; throws haha::Error "--preset: unknown preset 'x' (paper, tiny)".
+// The presets' names, for help texts and errors: "tiny, standard, paper".
+const char* preset_names();
+
+// "tiny", "standard" or "paper"; throws haha::Error "--preset: unknown preset 'x' (tiny, standard, paper)".
 TrainConfig make_preset(const std::string& name);
 
 // Sets one key from text. Throws haha::Error "<where>: <key>: <problem>" for an unknown key
@@ -159,6 +177,10 @@ void apply_overrides(TrainConfig& c, const std::vector<std::string>& kv, const s
 // Checks ranges that span fields (steps >= 0, batch >= 1, lrs >= 0, ...). Throws
 // haha::Error "config: <key>: <problem>".
 void validate_config(const TrainConfig& c);
+
+// The longer image side a run trains at on data whose longer side is `data_side`: the
+// config's `resolution` (0 = the data's), at most `max_resolution` when that is set.
+int train_resolution(const TrainConfig& c, int data_side);
 
 // Whether the images count as composited on black with their soft masks under the config's
 // `premultiplied` setting: "true" / "false", or for "auto" the data's own flag.

@@ -9,6 +9,7 @@
 #include "render/avatar_render.h"
 #include "train/adam.h"
 #include "train/image_loss.h"
+#include "train/levels.h"
 #include "train/losses.h"
 #include "train/outline_band.h"
 #include "train/pose_groups.h"
@@ -48,6 +49,69 @@ int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
   return b;
 }
 
+namespace {
+
+// Test-time pose optimisation on frame f: the avatar frozen, the frame's pose and transl
+// move (loss L2 + w (1 - SSIM) + w Dice). Returns the pose of the lowest loss seen; sets
+// fe's loss at the start and that lowest loss.
+SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Avatar& a, const AvatarViews& views,
+                               const EvalVariant& v, const EvalOptions& opt, FrameEval& fe) {
+  const BodyModel& body = a.body;
+  const int W = f.camera.width, H = f.camera.height, P = W * H;
+  Lbs<float> lbs(body);
+  LbsCache<float> cache;
+  AvatarRenderBuffers buf;
+  LossScratch<float> scratch;
+  std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, gt(3 * size_t(P)), d_image, sil, d_sil, d_alpha;
+  composite_ground_truth(f.rgb.data(), f.mask.data(), P, opt.premultiplied, opt.background, gt.data());
+  AvatarRenderRequest req = avatar_request(a, views, f.camera, verts.data(), v.mesh, v.gaussians);
+  req.antialias = opt.antialias;
+  for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
+  Adam adam;
+  const int gb = adam.add_group("body", kPoseBodyGroup, opt.lr_pose);
+  const int gf = adam.add_group("fine", kPoseFineGroup, opt.lr_pose_fine);
+  std::vector<float> pb(kPoseBodyGroup), pf(kPoseFineGroup), db(kPoseBodyGroup), dfn(kPoseFineGroup);
+  SmplxParams best = p;
+  double best_loss = INFINITY;
+  for (int s = 0; s <= opt.tto_steps; ++s) {
+    lbs.forward(p, verts.data(), nullptr, &cache);
+    render_avatar(req, buf);
+    d_image.assign(3 * size_t(P), 0.0f);
+    double loss = l2_loss<float>(buf.image.data(), gt.data(), H, W, nullptr, d_image.data(), 1.0f);
+    loss += opt.tto_w_ssim *
+            ssim_loss<float>(buf.image.data(), gt.data(), H, W, scratch, nullptr, d_image.data(), float(opt.tto_w_ssim));
+    const float* da = nullptr;
+    if (opt.tto_w_dice > 0 && v.gaussians) {
+      sil.resize(size_t(P));
+      d_sil.assign(size_t(P), 0.0f);
+      silhouette_union(buf.mesh.mask, buf.alpha.data(), P, sil.data());
+      loss += opt.tto_w_dice * dice_loss(sil.data(), f.mask.data(), P, d_sil.data(), float(opt.tto_w_dice));
+      d_alpha.resize(size_t(P));
+      silhouette_union_backward(buf.mesh.mask, d_sil.data(), P, d_alpha.data());
+      da = d_alpha.data();
+    }
+    if (s == 0) fe.tto_loss_start = loss;
+    if (loss < best_loss) best_loss = loss, best = p;  // keep the best pose seen
+    if (s == opt.tto_steps) break;
+    d_verts.assign(3 * size_t(body.num_verts), 0.0f);
+    AvatarRenderGrads gr;
+    gr.verts = d_verts.data();
+    render_avatar_backward(req, buf, d_image.data(), da, nullptr, gr);
+    SmplxGrad<float> sg = lbs.make_grad(p);
+    lbs.backward(p, cache, d_verts.data(), nullptr, sg);
+    pose_to_groups(sg, db.data(), dfn.data());
+    if (!finite_all(db) || !finite_all(dfn)) break;  // keep the last finite pose
+    pose_to_groups(p, pb.data(), pf.data());
+    adam.step(gb, pb.data(), db.data());
+    adam.step(gf, pf.data(), dfn.data());
+    groups_to_pose(pb.data(), pf.data(), p);
+  }
+  fe.tto_loss_end = best_loss;
+  return best;
+}
+
+}  // namespace
+
 VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>& frames, const EvalOptions& opt) {
   if (!v.avatar) fail("evaluate", v.name + ": no avatar");
   const Avatar& a = *v.avatar;
@@ -64,11 +128,9 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   if (frames.empty()) return out;
 
   Lbs<float> lbs(body);
-  LbsCache<float> cache;
   const AvatarViews views(a);
   AvatarRenderBuffers buf;
-  LossScratch<float> scratch;
-  std::vector<float> verts(3 * size_t(body.num_verts)), d_verts, gt, d_image, sil, d_sil, d_alpha;
+  std::vector<float> verts(3 * size_t(body.num_verts)), gt;
 
   for (size_t fi = 0; fi < frames.size(); ++fi) {
     const TrainFrame& f = frames[fi];
@@ -86,49 +148,16 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
 
     FrameEval fe;
-    // Test-time pose optimisation: the avatar is frozen, the frame's pose and transl move.
     if (opt.tto_steps > 0) {
-      Adam adam;
-      const int gb = adam.add_group("body", kPoseBodyGroup, opt.lr_pose);
-      const int gf = adam.add_group("fine", kPoseFineGroup, opt.lr_pose_fine);
-      std::vector<float> pb(kPoseBodyGroup), pf(kPoseFineGroup), db(kPoseBodyGroup), dfn(kPoseFineGroup);
-      SmplxParams best = p;
-      double best_loss = INFINITY;
-      for (int s = 0; s <= opt.tto_steps; ++s) {
-        lbs.forward(p, verts.data(), nullptr, &cache);
-        render_avatar(req, buf);
-        d_image.assign(3 * size_t(P), 0.0f);
-        double loss = l2_loss<float>(buf.image.data(), gt.data(), H, W, nullptr, d_image.data(), 1.0f);
-        loss += opt.tto_w_ssim *
-                ssim_loss<float>(buf.image.data(), gt.data(), H, W, scratch, nullptr, d_image.data(), float(opt.tto_w_ssim));
-        const float* da = nullptr;
-        if (opt.tto_w_dice > 0 && v.gaussians) {
-          sil.resize(size_t(P));
-          d_sil.assign(size_t(P), 0.0f);
-          silhouette_union(buf.mesh.mask, buf.alpha.data(), P, sil.data());
-          loss += opt.tto_w_dice * dice_loss(sil.data(), f.mask.data(), P, d_sil.data(), float(opt.tto_w_dice));
-          d_alpha.resize(size_t(P));
-          silhouette_union_backward(buf.mesh.mask, d_sil.data(), P, d_alpha.data());
-          da = d_alpha.data();
-        }
-        if (s == 0) fe.tto_loss_start = loss;
-        if (loss < best_loss) best_loss = loss, best = p;  // keep the best pose seen
-        if (s == opt.tto_steps) break;
-        d_verts.assign(3 * size_t(body.num_verts), 0.0f);
-        AvatarRenderGrads gr;
-        gr.verts = d_verts.data();
-        render_avatar_backward(req, buf, d_image.data(), da, nullptr, gr);
-        SmplxGrad<float> sg = lbs.make_grad(p);
-        lbs.backward(p, cache, d_verts.data(), nullptr, sg);
-        pose_to_groups(sg, db.data(), dfn.data());
-        if (!finite_all(db) || !finite_all(dfn)) break;  // keep the last finite pose
-        pose_to_groups(p, pb.data(), pf.data());
-        adam.step(gb, pb.data(), db.data());
-        adam.step(gf, pf.data(), dfn.data());
-        groups_to_pose(pb.data(), pf.data(), p);
+      // Test-time pose optimisation at most at opt.tto_resolution: the pose a finer image
+      // would find differs by a fraction of a coarse pixel, at a fraction of the cost.
+      const int side = std::max(W, H);
+      if (opt.tto_resolution > 0 && side > opt.tto_resolution) {
+        const TrainFrame small = downscale_train_frame(f, opt.tto_resolution);
+        p = optimise_test_pose(small, p, a, views, v, opt, fe);
+      } else {
+        p = optimise_test_pose(f, p, a, views, v, opt, fe);
       }
-      fe.tto_loss_end = best_loss;
-      p = best;
     }
     const auto t0 = std::chrono::steady_clock::now();
     lbs.forward(p, verts.data(), nullptr, nullptr);

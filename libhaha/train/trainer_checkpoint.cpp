@@ -66,7 +66,11 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   if (st < 1 || st > 4 || sp < 0 || (st <= 3 && sp > stage_steps(st)))
     fail(where, "meta.stage/meta.step: stage " + std::to_string(st) + " step " + std::to_string(sp) +
                     " does not fit the configured schedule");
-  if (scalar("meta.texture_size") != tex_size) fail(where, "meta.texture_size: differs from the config's s2.texture_size");
+  // The texture grows over stage 2's levels: any of their sizes (the config's when it has none).
+  const int ts = scalar("meta.texture_size");
+  bool ts_ok = ts == cfg.s2.texture_size;
+  for (int l = 0; l < levels[1].num_levels(); ++l) ts_ok = ts_ok || ts == texture_side(l);
+  if (!ts_ok) fail(where, "meta.texture_size: differs from the config's s2.texture_size and its levels");
   auto read_g = [&](const std::string& pre) {
     GaussianParams x;
     x.face = geti(pre + "face");
@@ -98,7 +102,7 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   std::vector<float> tex;
   if (ck.f32.count("texture")) {
     tex = getf("texture");
-    if (tex.size() != size_t(tex_size) * tex_size * 3) fail(where, "texture: wrong size");
+    if (tex.size() != size_t(ts) * ts * 3) fail(where, "texture: wrong size");
   }
   // Commit.
   stage = st;
@@ -113,6 +117,7 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
     for (int q = 0; q < 3; ++q) p.transl[size_t(q)] = transl[size_t(i) * 3 + size_t(q)];
   }
   texture = std::move(tex);
+  tex_size = ts;
   skipped = scalar("meta.skipped");
   nan_streak = scalar("meta.nan_streak");
   auto it = ck.f64.find("time.seconds");

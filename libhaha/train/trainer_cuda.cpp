@@ -73,11 +73,20 @@ struct Trainer::Impl::Cuda : TrainerDevice {
       d_texture, tex_color;
   DeviceBuffer<int32_t> nonfinite;
 
-  explicit Cuda(Impl& impl) : t(impl), lbs(impl.body), dbody(impl.body) {
+  explicit Cuda(Impl& impl) : t(impl), lbs(impl.body), dbody(impl.body) { upload_frames(); }
+
+  // The frames of the host's current level (coarse to fine changes their size).
+  int frames_w = -1, frames_h = -1;
+  void upload_frames() {
+    if (frames_w == t.W && frames_h == t.H) return;
+    rgb.clear();
+    mask.clear();
     for (const TrainFrame& f : t.in.frames) {
       rgb.emplace_back(f.rgb);
       mask.emplace_back(f.mask);
     }
+    frames_w = t.W;
+    frames_h = t.H;
   }
 
   // ---- state in and out (train/trainer_device.h) ----
@@ -124,6 +133,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
 
   void begin_stage(int s) override {
     upload();
+    upload_frames();
     frame_verts.clear();
     if (s == 3)
       for (const std::vector<float>& v : t.frame_verts) frame_verts.emplace_back(v);
@@ -364,6 +374,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
     }
     run_hook(2, d_texture);
     if (!std::isfinite(terms.total) || !all_finite({&d_texture})) return false;
+    adam.set_lr(adam.group("texture"), t.texture_lr());
     adam.step(adam.group("texture"), texture.data(), d_texture.data());
     cuda::clamp01_cuda(texture.data(), int64_t(texture.size()));
     return true;

@@ -17,8 +17,9 @@ namespace haha {
 class TrainerDevice {
  public:
   virtual ~TrainerDevice() = default;
-  // The host state is current (set-up, a stage change, a checkpoint restored): copy what
-  // stage s needs to the device (parameters, optimiser moments, statistics, frames).
+  // The host state is current (set-up, a stage change, a level change of coarse to fine, a
+  // checkpoint restored): copy what stage s needs to the device (parameters, optimiser
+  // moments, statistics, the frames when their size changed).
   virtual void begin_stage(int s) = 0;
   // One step of the current stage (the semantics of Trainer::Impl::step1/2/3); false:
   // non-finite, nothing was updated.

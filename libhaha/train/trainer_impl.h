@@ -28,6 +28,7 @@
 #include "train/face_stretch.h"
 #include "train/gaussian_params.h"
 #include "train/knn.h"
+#include "train/levels.h"
 #include "train/losses.h"
 #include "train/pose_groups.h"
 #include "train/trainer.h"
@@ -60,7 +61,7 @@ struct Trainer::Impl {
   TrainInput in;
   const BodyModel& body;
   Lbs<float> lbs;
-  int W = 0, H = 0, P = 0, nf = 0;
+  int W = 0, H = 0, P = 0, nf = 0;  // of the frames of the current level (in.frames)
   std::unique_ptr<LpipsNet<float>> lpips;
 
   // ---- state (what a checkpoint holds) ----
@@ -80,6 +81,11 @@ struct Trainer::Impl {
   std::array<double, 3> seconds{0, 0, 0};
   int64_t skipped = 0;
   int nan_streak = 0;
+
+  // ---- coarse to fine (train/levels.h; trainer_levels.cpp) ----
+  std::array<LevelSchedule, 3> levels;  // per stage
+  std::vector<TrainFrame> full_frames;  // the input at the training resolution, when a stage has levels
+  int level_stage = 0, level = -1;      // what in.frames and the texture hold now (-1: the input as given)
 
   // ---- derived / scratch ----
   std::vector<std::vector<float>> frame_verts;  // stages 2-3: posed bodies (frozen)
@@ -128,7 +134,7 @@ struct Trainer::Impl {
     if (!cfg.use_sobel) w.sobel = 0;
     if (!cfg.use_opacity_reg) w.opacity = 0;
     if (!cfg.use_dice) w.dice = 0;
-    if (!lpips) w.lpips = 0;
+    if (!lctx.lpips) w.lpips = 0;  // no weights, or this level's images are too small
     return w;
   }
 
@@ -185,6 +191,7 @@ struct Trainer::Impl {
       if (std::min(W, H) < lpips->min_size()) lpips.reset();
     }
     lctx.lpips = lpips.get();
+    setup_levels();
     // Shared betas: mean of the fits (at most the model's shape columns).
     size_t nb = 0;
     for (const TrainFrame& f : in.frames) nb = std::max(nb, f.params.betas.size());
@@ -201,7 +208,7 @@ struct Trainer::Impl {
       if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
       params.push_back(p);
     }
-    tex_size = cfg.s2.texture_size;
+    tex_size = cfg.s2.texture_size;  // the texture is made at stage 2's first level (begin_stage)
     d_frame_body.assign(size_t(nf), std::vector<float>(kPoseBodyGroup));
     d_frame_fine.assign(size_t(nf), std::vector<float>(kPoseFineGroup));
     frame_touched.assign(size_t(nf), 0);
@@ -211,6 +218,7 @@ struct Trainer::Impl {
       g = init_one_per_face(body.num_faces, float(cfg.s1.init_scale), float(cfg.s1.init_color), float(cfg.s1.opacity),
                             float(cfg.scale_max));
       begin_stage(1);
+      set_level(1, levels[0].level_of(0));
     }
   }
 
@@ -237,10 +245,17 @@ struct Trainer::Impl {
         g_s1 = g;
         have_s1 = true;
       }
-      if (texture.empty()) texture.assign(size_t(tex_size) * tex_size * 3, float(cfg.s2.init_color));
+      if (texture.empty()) {
+        tex_size = texture_side(levels[1].level_of(step));
+        texture.assign(size_t(tex_size) * tex_size * 3, float(cfg.s2.init_color));
+      }
       adam.add_group("texture", int64_t(texture.size()), cfg.s2.lr_texture, 3);
       build_frame_verts();
     } else if (s == 3) {
+      if (!texture.empty() && tex_size != cfg.s2.texture_size) {  // stage 2 ended before its finest level
+        texture = resample_texture(texture, tex_size, cfg.s2.texture_size);
+        tex_size = cfg.s2.texture_size;
+      }
       const int n = g.size();
       adam.add_group("opacity", n, cfg.s3.lr_opacity, 1);
       adam.add_group("color", 3 * int64_t(n), cfg.s3.lr_color, 3);
@@ -255,11 +270,28 @@ struct Trainer::Impl {
       frame_verts[size_t(i)].resize(3 * size_t(body.num_verts));
       lbs.forward(frame_params(i), frame_verts[size_t(i)].data(), nullptr, nullptr);
     }
-    // Per-frame caches: tri + uv + mask (stage 2) or depth + colour + mask (stage 3).
+    reset_mesh_cache();
+  }
+
+  // Per-frame caches of the current stage and image size: tri + uv + mask (stage 2) or
+  // depth + colour + mask (stage 3), all frames when they fit in max_cache_mb.
+  void reset_mesh_cache() {
     const double per_frame = double(P) * (stage == 2 ? 4 + 8 + 4 : 4 + 12 + 4);
     cache_all = per_frame * nf <= cfg.max_cache_mb * 1024.0 * 1024.0;
     mesh_cache.assign(cache_all ? size_t(nf) : 0, MeshCache{});
   }
+
+  // ---------------------------------------------------------------------------------
+  // Coarse to fine (trainer_levels.cpp).
+  void setup_levels();
+  int texture_side(int s2_level) const;
+  // Makes in.frames (and in stage 2 the texture) those of level `lvl` of stage s, on the
+  // host; a device backend must be handed the state afterwards (begin_stage).
+  void set_level(int s, int lvl);
+  // Before a step: the level its step count asks for (host and device). Returns an event
+  // ("level 2/3: 256x256 px") when the images changed size, else "".
+  std::string enter_step_level();
+  std::string level_note() const;  // "level 1/3: 128x128 px[, texture 256^2]"; "" without levels
 
   // Mesh data of frame fi for the current stage (cached when memory allows).
   MeshCache& mesh_of(int fi) {
@@ -328,6 +360,10 @@ struct Trainer::Impl {
   // ---------------------------------------------------------------------------------
   // Stage 2.
   bool step2(LossTerms& terms, std::string&);
+  double texture_lr() const {  // of this step (s2.lr.texture_final)
+    const Stage2Config& s2 = cfg.s2;
+    return s2.lr_texture_final > 0 ? LogLinearLr{s2.lr_texture, s2.lr_texture_final, s2.steps}(step) : s2.lr_texture;
+  }
 
   // ---------------------------------------------------------------------------------
   // Stage 3.
@@ -341,6 +377,7 @@ struct Trainer::Impl {
     StepReport r;
     r.stage = stage;
     r.steps = stage_steps(stage);
+    r.event = enter_step_level();
     bool ok = true;
     if (r.steps > 0) {
       if (dev)
@@ -371,8 +408,11 @@ struct Trainer::Impl {
       step = 0;
       if (stage <= 3) {
         begin_stage(stage);
+        set_level(stage, levels[size_t(stage - 1)].level_of(0));
         if (dev) dev->begin_stage(stage);
-        r.event += (r.event.empty() ? "" : "; ") + std::string("begin stage ") + std::to_string(stage);
+        const std::string note = level_note();
+        r.event += (r.event.empty() ? "" : "; ") + std::string("begin stage ") + std::to_string(stage) +
+                   (note.empty() ? "" : " (" + note + ")");
       }
       if (stage <= 3)
         seconds[size_t(stage - 1)] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();

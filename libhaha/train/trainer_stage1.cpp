@@ -226,7 +226,7 @@ void Trainer::Impl::densify(std::string& event) {
   char buf[192];
   std::snprintf(buf, sizeof buf, "densify %d -> %d (clone %d, split %d; mean grad p50 %.2g p90 %.2g p99 %.2g)", before,
                 g.size(), r.cloned, r.split, pct(0.5), pct(0.9), pct(0.99));
-  event = buf;
+  event += (event.empty() ? "" : "; ") + std::string(buf);
   grad_accum.assign(size_t(g.size()), 0.0f);
   grad_count.assign(size_t(g.size()), 0.0f);
 }

@@ -30,6 +30,7 @@ bool Trainer::Impl::step2(LossTerms& terms, std::string&) {
   }
   if (hook) hook(2, d_texture);
   if (!std::isfinite(terms.total) || !finite_all(d_texture)) return false;
+  adam.set_lr(adam.group("texture"), texture_lr());
   adam.step(adam.group("texture"), texture.data(), d_texture.data());
   for (float& t : texture) t = std::clamp(t, 0.0f, 1.0f);
   return true;

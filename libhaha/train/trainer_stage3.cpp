@@ -92,7 +92,7 @@ void Trainer::Impl::prune(std::string& event) {
   adam.reindex(adam.group("opacity"), idx);
   adam.reindex(adam.group("color"), idx);
   knn_idx.clear();
-  event = "prune " + std::to_string(before) + " -> " + std::to_string(g.size());
+  event += (event.empty() ? "" : "; ") + std::string("prune ") + std::to_string(before) + " -> " + std::to_string(g.size());
 }
 
 }  // namespace haha
