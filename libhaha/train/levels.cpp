@@ -64,6 +64,7 @@ TrainFrame downscale_train_frame(const TrainFrame& f, int longer_side) {
   mask.data = f.mask;
   t.rgb = resize_area(rgb, nw, nh).data;
   t.mask = resize_area(mask, nw, nh).data;
+  for (float& m : t.mask) m = std::clamp(m, 0.0f, 1.0f);  // an average of ones can round above 1
   const float sx = float(nw) / float(W), sy = float(nh) / float(H);
   t.camera.width = nw;
   t.camera.height = nh;

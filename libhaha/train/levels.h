@@ -29,8 +29,9 @@ LevelSchedule make_level_schedule(const std::string& text, int steps, const std:
 // The side of level `level` of `num_levels` whose finest side is `full` (at least 1).
 int level_side(int full, int level, int num_levels);
 
-// The frame resampled (area filter, rgb and mask) so its longer side is `longer_side`, the
-// camera scaled with it (core/camera.h: pixel-edge convention). As given when equal.
+// The frame resampled (area filter, rgb and mask; the mask clamped to [0, 1] again) so its
+// longer side is `longer_side`, the camera scaled with it (core/camera.h: pixel-edge
+// convention). As given when equal.
 TrainFrame downscale_train_frame(const TrainFrame& f, int longer_side);
 
 // A (size, size, 3) texture resampled bilinearly (render/texture.h conventions) to

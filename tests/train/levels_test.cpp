@@ -81,6 +81,18 @@ TEST(Levels, DownscaledFrameKeepsProjectionAndMass) {
   EXPECT_NEAR(ra, rb, 1e-5);
   // The same size: as given.
   EXPECT_EQ(downscale_train_frame(f, 64).rgb, f.rgb);
+  // A mask of ones at an uneven ratio (970 x 720 -> 128, as a cropped video): averages of
+  // ones round to just above 1 in float; the mask stays in [0, 1].
+  TrainFrame wide;
+  wide.camera = f.camera;
+  wide.camera.width = 970;
+  wide.camera.height = 720;
+  wide.rgb.assign(size_t(970) * 720 * 3, 0.5f);
+  wide.mask.assign(size_t(970) * 720, 1.0f);
+  for (int side : {128, 333, 512}) {
+    const TrainFrame w = downscale_train_frame(wide, side);
+    for (float m : w.mask) ASSERT_TRUE(m >= 0.0f && m <= 1.0f) << side << " " << m;
+  }
 }
 
 TEST(Levels, ResampledTextureShowsWhatTheCoarseOneShowed) {
@@ -191,6 +203,30 @@ TEST(TrainerLevels, CheckpointTextureSizeMustBeOneOfTheLevels) {
   ck.i32["meta.texture_size"] = {24};
   Trainer u(c, scene_input(frames64()));
   test::expect_error([&] { u.load(ck, "ck.npz"); }, {"ck.npz", "meta.texture_size"});
+}
+
+double max_pose_change(const Trainer& t, const std::vector<TrainFrame>& f) {
+  double m = 0;
+  const std::vector<SmplxParams> p = t.refined_params();
+  for (size_t i = 0; i < f.size(); ++i)
+    for (size_t k = 0; k < p[i].pose.size(); ++k) m = std::max(m, double(std::abs(p[i].pose[k] - f[i].params.pose[k])));
+  return m;
+}
+
+TEST(TrainerLevels, PoseRatesScaleWithTheLevelAndBetasCanStayAsFitted) {
+  // s1.lr.pose_level_exp: at the coarse level (half the side) the pose rates are 2^-40 of
+  // theirs, so the poses stay put there and move at the full-size level.
+  TrainConfig c = level_config();
+  c.s1.lr_pose_level_exp = 40;
+  c.s1.lr_betas_scale = 0;
+  Trainer t(c, scene_input(frames64()));
+  for (int i = 0; i < 5; ++i) t.step();  // stage 1's coarse level
+  EXPECT_LT(max_pose_change(t, frames64()), 1e-9);
+  for (int i = 0; i < 5; ++i) t.step();
+  EXPECT_GT(max_pose_change(t, frames64()), 1e-5);
+  // Betas as fitted (the frames' mean) after the pose moved.
+  for (size_t k = 0; k < t.refined_params()[0].betas.size(); ++k)
+    EXPECT_EQ(t.refined_params()[0].betas[k], frames64()[0].params.betas[k]);
 }
 
 TEST(TrainConfig, StandardPresetAndTheResolutionCap) {
