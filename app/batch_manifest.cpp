@@ -112,7 +112,7 @@ std::vector<std::string> split_manifest_line(const std::string& line, std::strin
 }
 
 void resolve_subject_options(BatchSubject& s) {
-  s.preset = "tiny";
+  s.preset = "standard";
   s.device = "cpu";
   s.model.clear();
   s.train_overrides.clear();

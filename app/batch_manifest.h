@@ -2,7 +2,7 @@
 // (Slurm job arrays, Kubernetes Indexed Jobs; docs/scale-out.md).
 //
 //   # comment; blank lines are ignored
-//   * preset=tiny s1.steps=400                  options every subject gets (its own line wins)
+//   * preset=standard s2.steps=2000             options every subject gets (its own line wins)
 //   alice   videos/alice.mp4   fit:fps=10 fit:test-every=10
 //   bob     frames/bob/        fit:focal-35mm=26 eval:tto-steps=0
 //   carol   data/carol         s1.steps=800 pack:mesh-compression=none
@@ -16,7 +16,7 @@
 //
 // Options (key=value):
 //   KEY=V          a training config key (`haha train --list-keys`), as `haha train KEY=V`
-//   preset=P       tiny | paper (default tiny);  device=D  cpu | cuda | auto (default cpu)
+//   preset=P       tiny | standard | paper (default standard);  device=D  cpu | cuda | auto (default cpu)
 //   model=PATH     body model .npz (default: the dataset's body_model.npz)
 //   fit:K=V        `haha fit-video --K V`: fps, test-every, test-from, focal, focal-35mm, fov,
 //                  frames, mask, keypoints, robust-smoothness
@@ -45,7 +45,7 @@ struct BatchSubject {
   std::vector<std::pair<std::string, std::string>> options;  // defaults ('*' lines) first, then its own
   std::string error;       // non-empty: the line is bad input (why), the fields may be partial
   // The options sorted out (valid only when error is empty).
-  std::string preset = "tiny", device = "cpu", model;
+  std::string preset = "standard", device = "cpu", model;
   std::vector<std::string> train_overrides;                       // key=value
   std::vector<std::pair<std::string, std::string>> fit, eval, pack;  // without their prefix
   // A fingerprint of what the subject's outputs depend on (id, input, options): a subject

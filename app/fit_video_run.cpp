@@ -256,7 +256,7 @@ FitVideoSummary run_fit_video(const FitVideoRunOptions& opt, const BodyModel& bo
   s.crop_w = box.w;
   s.crop_h = box.h;
   s.person_height_px = person.h;
-  s.train_resolution = make_preset("tiny").resolution;
+  s.train_resolution = train_resolution(make_preset("standard"), std::max(box.w, box.h));
   say("[4/4] " + crop_report_line(s));
   const Camera dataset_camera = crop_camera(r.camera, box);
 

@@ -18,6 +18,7 @@
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
 #include "train/device.h"
+#include "train/progress.h"
 #include "train/silhouette_fit.h"
 #include "train/train_loop.h"
 
@@ -89,7 +90,12 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
   if (cfg.s0.steps > 0 && !opt.resume) {  // a resumed run has its refined poses in the checkpoint
     const auto t0 = std::chrono::steady_clock::now();
-    const SilhouetteFitReport fit = fit_poses_to_masks(body, input.frames, cfg.s0);
+    const SilhouetteFitReport fit = fit_poses_to_masks(body, input.frames, cfg.s0, [&](int done, int total) {
+      if (done % 10 != 0 || done == total) return;
+      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      log("[pose pre-fit] " + std::to_string(done) + "/" + std::to_string(total) + " frames | ETA " +
+          format_duration(el / done * (total - done)));
+    });
     double a = 0, b = 0;
     for (size_t i = 0; i < fit.loss_start.size(); ++i) a += fit.loss_start[i], b += fit.loss_end[i];
     char line[160];

@@ -75,7 +75,7 @@ std::string crop_report_line(const FitVideoSummary& s) {
   if (s.person_height_px > 0 && s.train_resolution > 0) {
     const double scale = double(s.train_resolution) / std::max(s.crop_w, s.crop_h);
     const double uncropped = double(s.train_resolution) / std::max(s.width, s.height);
-    std::snprintf(b, sizeof b, ": the person is %d px tall, %.0f px at the tiny preset's %d px training size",
+    std::snprintf(b, sizeof b, ": the person is %d px tall, %.0f px at the standard preset's %d px training size",
                   s.person_height_px, s.person_height_px * scale, s.train_resolution);
     out += b;
     if (s.cropped) {

@@ -40,8 +40,8 @@ struct FitVideoSummary {
   std::vector<FitVideoFrameRow> frames;  // one per frame given to the fit
   // The dataset's frames: this box of the input frames (the whole frame with --no-crop;
   // fit/fit_video_crop.h) and the person's height in it (the box of the person over the
-  // kept frames; 0: not measured), also at the tiny preset's training size (the dataset's
-  // longer side scaled to train_resolution px).
+  // kept frames; 0: not measured), also at the standard preset's training size (the
+  // dataset's longer side scaled to train_resolution px).
   bool cropped = false;        // false: --no-crop
   int crop_x0 = 0, crop_y0 = 0, crop_w = 0, crop_h = 0;
   int person_height_px = 0;

@@ -11,9 +11,9 @@
 //   tiny   the CPU demo: 128 px, batch 1, short stages and proportionally larger learning
 //          rates, sized so that `haha synth` + `haha train` + `haha eval` fit in about ten
 //          minutes on two cores.
-//   standard  real use on a CPU: coarse to fine up to the video's size (longer side capped
-//          at 512 px), most steps at a quarter and half of it, the texture doubling with
-//          the image up to 1024^2 (docs/results.md "Sharp at 512 px").
+//   standard  real use on a CPU: the video's size (longer side at most 512 px), the texture
+//          trained coarse to fine up to 1024^2 with a decaying rate, the Gaussians and the
+//          filtering at full size (docs/results.md "Sharp at 512 px").
 #pragma once
 
 #include <cstdint>
@@ -60,6 +60,10 @@ struct Stage1Config {
   // their start (a large early rate repairs fits, a small late one lets the avatar settle);
   // 0: constant.
   double lr_pose_final = 0;
+  // Coarse to fine: the pose rates at a level whose side is r times the full size are
+  // multiplied by r^lr_pose_level_exp (0: the same rates at every level).
+  double lr_pose_level_exp = 0;
+  double lr_betas_scale = 1;   // the shared betas' rate is this times the pose rate (0: betas as fitted)
   bool refine_pose = true;
   double opacity = 0.99;       // held fixed during the stage
   double init_scale = 0.015;   // activated local scale at start (units of the face scale k)

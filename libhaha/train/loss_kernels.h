@@ -79,6 +79,7 @@ HAHA_HD void blur_col_span(const T* plane, int H, int W, int y, int x0, int x1, 
   for (int k = k0; k < k1; ++k) {
     const T gk = g[k];
     const T* src = plane + int64_t(y + k - R) * W;
+    HAHA_SIMD
     for (int x = x0; x < x1; ++x) out_row[x] += gk * src[x];
   }
 }

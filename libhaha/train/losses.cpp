@@ -76,11 +76,12 @@ void blur_rows(const T* in, T* out, int H, int W, int n) {
     loss::blur_row_span(a, W, 0, R, taps.g, b);
     loss::blur_row_span(a, W, W - R, W, taps.g, b);
     // The columns whose window lies inside the row, tap by tap so the loop over x
-    // vectorises; the same sums in the same order as blur_row_span.
+    // vectorises: blur_row_span's sums, in its order.
     for (int x = R; x < W - R; ++x) b[x] = T(0);
     for (int k = 0; k < kSsimWindow; ++k) {
       const T gk = taps.g[k];
       const T* src = a + k - R;
+      HAHA_SIMD
       for (int x = R; x < W - R; ++x) b[x] += gk * src[x];
     }
   });
@@ -278,13 +279,18 @@ T texture_tv_loss(const T* tex, int H, int W, int C, T* grad, T grad_scale) {
       }
       for (int64_t i = 0; i < C; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
       for (int64_t i = rs - C; i < rs; ++i) loss::tv_grad_item(tex, H, rs, C, r, i, k, grad);
-      // Inside the texture all four neighbours exist: tv_grad_item's value without its
-      // branches, so the loop vectorises (signs are exact small integers: same result).
+      // Inside the texture all four neighbours exist: tv_grad_item's value with the signs
+      // summed as integers, without branches, so the loop vectorises. Same result: the sum
+      // of four signs is an exact small integer either way.
       const T* a = tex + r * rs;
       T* gr = grad + r * rs;
-      auto sgn = [](T v) { return T(v > T(0)) - T(v < T(0)); };
-      for (int64_t i = C; i < rs - C; ++i)
-        gr[i] += k * (sgn(a[i] - a[i - C]) - sgn(a[i + C] - a[i]) + sgn(a[i] - a[i - rs]) - sgn(a[i + rs] - a[i]));
+      HAHA_SIMD
+      for (int64_t i = C; i < rs - C; ++i) {
+        const T d0 = a[i] - a[i - C], d1 = a[i + C] - a[i], d2 = a[i] - a[i - rs], d3 = a[i + rs] - a[i];
+        const int s = (d0 > T(0)) - (d0 < T(0)) - (d1 > T(0)) + (d1 < T(0)) + (d2 > T(0)) - (d2 < T(0)) -
+                      (d3 > T(0)) + (d3 < T(0));
+        gr[i] += k * T(s);
+      }
     });
   }
   return T(sum / count);

@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "train/config.h"
 #include "train/trainer.h"
@@ -26,7 +27,11 @@ class TrainProgress {
   double eta() const { return eta_; }    // seconds left in the whole run; NaN before a rate
 
  private:
+  // Work of stage s's steps [a, b): one unit per step at full size; coarse-to-fine levels
+  // cost by their pixel count plus a fixed part (train/levels.h).
+  double work(int s, int a, int b) const;
   std::array<int, 3> steps_;
+  std::array<std::vector<double>, 3> work_before_;  // per stage: work of its first k steps, k = 0..steps
   std::chrono::steady_clock::time_point stage_start_;
   int started_at_ = 0;  // completed steps of the stage when its clock started
   double rate_ = 0, eta_ = 0;

@@ -81,7 +81,7 @@ double silhouette_mismatch(const float* image, const float* mask, int num_pixels
 }
 
 SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainFrame>& frames,
-                                       const Stage0Config& opt) {
+                                       const Stage0Config& opt, const std::function<void(int, int)>& progress) {
   SilhouetteFitReport rep;
   if (opt.steps <= 0) return rep;
   BodySilhouette silhouette(body);
@@ -124,6 +124,7 @@ SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainF
       adam.step(gb, pb.data(), db.data());
       groups_to_pose(pb.data(), pf.data(), p);
     }
+    if (progress) progress(int(fi) + 1, int(frames.size()));
   }
   return rep;
 }

@@ -8,6 +8,7 @@
 // for monocular video: independent fit errors average out). Opt-in (`s0.steps`).
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "body/body_model.h"
@@ -56,8 +57,10 @@ struct SilhouetteFitReport {
 // pi), translations linearly.
 std::vector<std::vector<float>> temporal_pose_anchors(const std::vector<TrainFrame>& frames, int half_window);
 
-// Updates every frame's params in place (betas and expression untouched).
+// Updates every frame's params in place (betas and expression untouched). `progress`
+// (optional) is called after each frame with the frames done and their count.
 SilhouetteFitReport fit_poses_to_masks(const BodyModel& body, std::vector<TrainFrame>& frames,
-                                       const Stage0Config& opt);
+                                       const Stage0Config& opt,
+                                       const std::function<void(int done, int total)>& progress = {});
 
 }  // namespace haha

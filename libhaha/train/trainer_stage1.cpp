@@ -80,7 +80,9 @@ void Trainer::Impl::update_pose() {
     double f = 1;
     if (cfg.s1.lr_pose_final > 0 && cfg.s1.lr_pose > 0)
       f = LogLinearLr{cfg.s1.lr_pose, cfg.s1.lr_pose_final, cfg.s1.steps}(step) / cfg.s1.lr_pose;
-    adam.set_lr(adam.group("betas"), f * cfg.s1.lr_pose);
+    if (cfg.s1.lr_pose_level_exp > 0 && level_stage == 1)
+      f *= std::pow(std::ldexp(1.0, level - (levels[0].num_levels() - 1)), cfg.s1.lr_pose_level_exp);
+    adam.set_lr(adam.group("betas"), f * cfg.s1.lr_pose * cfg.s1.lr_betas_scale);
     if (pose_hook) pose_hook("betas", d_betas);  // exactly what Adam receives
     adam.step(adam.group("betas"), betas.data(), d_betas.data());
     for (int i = 0; i < nf; ++i) {

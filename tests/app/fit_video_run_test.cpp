@@ -26,6 +26,7 @@
 #include "body/procedural_body.h"
 #include "core/atomic_file.h"
 #include "core/interrupt.h"
+#include "train/config.h"
 #include "render/mesh_raster.h"
 #include "support/data_test_util.h"
 #include "support/low_body.h"
@@ -638,7 +639,9 @@ TEST_F(FitVideoCropMattingTest, StaticCameraCropsAndMatsTheDataset) {
   EXPECT_EQ(j["crop"]["width"], box.w);
   EXPECT_EQ(j["matting"]["used"], true);
   EXPECT_EQ(j["matting"]["plate_frames"], kVframes);
-  EXPECT_NEAR(j["person_height_train_px"].get<double>(), s.person_height_px * 128.0 / std::max(box.w, box.h), 1e-9);
+  const int side = std::max(box.w, box.h);
+  EXPECT_NEAR(j["person_height_train_px"].get<double>(),
+              s.person_height_px * double(train_resolution(make_preset("standard"), side)) / side, 1e-9);
   EXPECT_TRUE(leftovers().empty());
 }
 

@@ -52,6 +52,15 @@ void BM_Edge(benchmark::State& s) {
 }
 BENCHMARK(BM_Edge)->Unit(benchmark::kMillisecond);
 
+void BM_TextureTv(benchmark::State& s) {
+  // Stage 2's regulariser on the texture sizes of the presets (tiny 256, paper 512, standard 1024).
+  const int n = int(s.range(0));
+  auto t = random_floats(size_t(n) * n * 3, 3);
+  std::vector<float> g(t.size());
+  for (auto _ : s) benchmark::DoNotOptimize(texture_tv_loss<float>(t.data(), n, n, 3, g.data()));
+}
+BENCHMARK(BM_TextureTv)->Arg(256)->Arg(1024)->Unit(benchmark::kMillisecond);
+
 void BM_KnnSearch(benchmark::State& s) {
   // Points on an ellipsoid shell, the shape of Gaussians bound to a body surface.
   const int64_t n = s.range(0);

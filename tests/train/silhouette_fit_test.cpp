@@ -71,8 +71,11 @@ TEST(SilhouetteFit, PullsAPerturbedFitOntoTheMask) {
   o.steps = 60;
   o.lr = 1e-2;
   o.w_inside = 1.0;  // the mask is the body's own: both sides count alike
-  const SilhouetteFitReport r = fit_poses_to_masks(scene_body(), frames, o);
+  std::vector<std::pair<int, int>> calls;
+  const SilhouetteFitReport r =
+      fit_poses_to_masks(scene_body(), frames, o, [&](int done, int total) { calls.emplace_back(done, total); });
   ASSERT_EQ(r.loss_start.size(), 2u);
+  EXPECT_EQ(calls, (std::vector<std::pair<int, int>>{{1, 2}, {2, 2}}));  // progress after each frame
   for (size_t i = 0; i < frames.size(); ++i) {
     EXPECT_LT(r.loss_end[i], 0.5 * r.loss_start[i]) << "frame " << i;
     // What a front view determines: the sideways shift and the arm raised in the image
