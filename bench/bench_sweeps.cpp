@@ -218,7 +218,7 @@ std::vector<uint8_t> pack_with_setting(const Avatar& a, const PackSetting& s, Pa
 std::vector<PackSetting> default_pack_settings(int tex, std::string default_codec, int default_quality) {
   const PackOptions defaults;
   if (default_codec.empty()) default_codec = texture_extension(defaults.texture_codec);
-  if (default_quality <= 0) default_quality = defaults.texture_quality;
+  if (default_quality <= 0) default_quality = default_texture_quality(tex);
   std::vector<PackSetting> s;
   PackSetting ref;
   ref.name = "lossless float32";

@@ -29,7 +29,9 @@ HAHA_COMMAND(pack) {
                   "Draco quantization bits of the mesh: N for all, or position=16,normal=10,texcoord=14,weight=12");
   sub->add_option("--texture", o->texture, "texture image format: png (lossless 8-bit), jpg or webp")->capture_default_str();
   sub->add_option("--texture-size", o->texture_size, "resample the texture to N x N (default: trained size)");
-  sub->add_option("--texture-quality", o->texture_quality, "jpg/webp quality 1..100")->capture_default_str();
+  sub->add_option("--texture-quality", o->texture_quality,
+                  "jpg/webp quality 1..100 (default: 90 for textures up to 512^2, 75 for larger ones)")
+      ->check(CLI::Range(0, 100));
   sub->add_flag("--lossless", o->lossless, "float32 everywhere + exact texture copy: unpack restores every parameter bit-exact");
   sub->add_flag("--khr-gaussian-splatting", o->splats,
                 "also store the Gaussians in the rest pose as a KHR_gaussian_splatting primitive (splat viewers)");

@@ -191,6 +191,8 @@ std::vector<T> gather(const std::vector<T>& per_body_vertex, const std::vector<i
 
 }  // namespace
 
+int default_texture_quality(int side) { return side <= 512 ? 90 : 75; }
+
 std::vector<float> baked_rest_vertices(const Avatar& a) {
   const BodyModel& b = a.body;
   const size_t V = size_t(b.num_verts);
@@ -570,7 +572,8 @@ void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest, bool with
 void add_texture(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   Texture tex = a.texture;
   if (opt.texture_size > 0) tex = resize_texture(tex, opt.texture_size, opt.texture_size);
-  const std::vector<uint8_t> img = encode_texture(tex, opt.texture_codec, opt.texture_quality);
+  const int quality = opt.texture_quality > 0 ? opt.texture_quality : default_texture_quality(tex.width);
+  const std::vector<uint8_t> img = encode_texture(tex, opt.texture_codec, quality);
   const int img_view = d.bin.add_view(img.data(), img.size());
   d.sz.texture = img.size();
   d.images = Json::array({{{"bufferView", img_view}, {"mimeType", texture_mime(opt.texture_codec)}, {"name", "texture"}}});

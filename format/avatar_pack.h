@@ -76,7 +76,7 @@ struct PackOptions {
   // not; docs/results.md "Storage"); png is lossless 8-bit; webp is smaller but makes
   // EXT_texture_webp a required extension.
   TextureCodec texture_codec = TextureCodec::jpg;  // webp q95 is smaller but fell below 45 dB on a trained texture (haha bench)
-  int texture_quality = 90;  // jpg / webp
+  int texture_quality = 0;   // jpg / webp 1..100; 0 = default_texture_quality() of the packed texture's side
   int texture_size = 0;      // 0 = the trained size; else a square N x N resample
   // Adds a KHR_gaussian_splatting POINTS primitive with the Gaussians in the rest pose
   // (for splat-aware viewers). Note: the Khronos validator (2.0.0-dev.3.10) reports its
@@ -101,6 +101,13 @@ struct PackOptions {
   // prefixes N/2^(T-1), ..., N (format/gaussian_lod.h); 1 = one point cloud.
   int lod_tiers = 1;
 };
+
+// The jpg / webp quality a texture of side `side` is packed at by default: 90 up to 512^2
+// (the demo's 256^2 texture stays above the 45 dB budget there, q85 did not), 75 above: a
+// 1024^2 texture holds four times the texels, and at q75 the taiji.mp4 avatar keeps
+// 50.1 dB against the trained one in 265 KB instead of 365 KB at q90 (docs/results.md
+// "Sharp at 512 px").
+int default_texture_quality(int side);
 
 // Bytes per part of a packed file (what `haha info` and the storage report show).
 struct PackedSizes {

@@ -449,6 +449,24 @@ TEST(FormatRoundTrip, TextureOptions) {
   EXPECT_THROW(pack_avatar(a, bad), Error);
 }
 
+TEST(FormatRoundTrip, DefaultTextureQualityFollowsTheTextureSize) {
+  // Quality 0 (the default) packs up to 512^2 at 90 and larger textures at 75: the same
+  // bytes as those qualities given, and a smaller file than 90 for the large texture.
+  EXPECT_EQ(default_texture_quality(256), 90);
+  EXPECT_EQ(default_texture_quality(512), 90);
+  EXPECT_EQ(default_texture_quality(1024), 75);
+  const Avatar a = test::make_test_avatar(20);
+  PackOptions opt, q;
+  ASSERT_EQ(opt.texture_quality, 0);
+  for (int side : {64, 1024}) {
+    opt.texture_size = q.texture_size = side;
+    q.texture_quality = side <= 512 ? 90 : 75;
+    EXPECT_EQ(pack_avatar(a, opt), pack_avatar(a, q)) << side;
+  }
+  q.texture_quality = 90;
+  EXPECT_LT(pack_avatar(a, opt).size(), pack_avatar(a, q).size());
+}
+
 // Filtering can remove every Gaussian: such an avatar packs without a point cloud (Draco
 // has no empty one, glTF no empty accessor) and reads back as the textured mesh alone.
 TEST(FormatRoundTrip, AvatarWithoutGaussiansPacksAndReadsBack) {
