@@ -209,7 +209,6 @@ TrainConfig standard_preset(TrainConfig c) {
   c.s3.steps = 800;
   c.s3.prune_every = 100;
   c.eval_tto_steps = 20;
-  c.eval_tto_resolution = 256;
   c.eval_lr_pose = 3e-3;
   return c;
 }

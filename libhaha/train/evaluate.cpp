@@ -51,11 +51,11 @@ int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
 
 namespace {
 
-// Test-time pose optimisation on frame f: the avatar frozen, the frame's pose and transl
-// move (loss L2 + w (1 - SSIM) + w Dice). Returns the pose of the lowest loss seen; sets
-// fe's loss at the start and that lowest loss.
+// `steps` of test-time pose optimisation on frame f: the avatar frozen, the frame's pose and
+// transl move (loss L2 + w (1 - SSIM) + w Dice). Returns the pose of the lowest loss seen
+// (the start included); sets fe's loss at the start and that lowest loss.
 SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Avatar& a, const AvatarViews& views,
-                               const EvalVariant& v, const EvalOptions& opt, FrameEval& fe) {
+                               const EvalVariant& v, const EvalOptions& opt, int steps, FrameEval& fe) {
   const BodyModel& body = a.body;
   const int W = f.camera.width, H = f.camera.height, P = W * H;
   Lbs<float> lbs(body);
@@ -73,7 +73,7 @@ SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Avatar&
   std::vector<float> pb(kPoseBodyGroup), pf(kPoseFineGroup), db(kPoseBodyGroup), dfn(kPoseFineGroup);
   SmplxParams best = p;
   double best_loss = INFINITY;
-  for (int s = 0; s <= opt.tto_steps; ++s) {
+  for (int s = 0; s <= steps; ++s) {
     lbs.forward(p, verts.data(), nullptr, &cache);
     render_avatar(req, buf);
     d_image.assign(3 * size_t(P), 0.0f);
@@ -92,7 +92,7 @@ SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Avatar&
     }
     if (s == 0) fe.tto_loss_start = loss;
     if (loss < best_loss) best_loss = loss, best = p;  // keep the best pose seen
-    if (s == opt.tto_steps) break;
+    if (s == steps) break;
     d_verts.assign(3 * size_t(body.num_verts), 0.0f);
     AvatarRenderGrads gr;
     gr.verts = d_verts.data();
@@ -149,14 +149,25 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
 
     FrameEval fe;
     if (opt.tto_steps > 0) {
-      // Test-time pose optimisation at most at opt.tto_resolution: the pose a finer image
-      // would find differs by a fraction of a coarse pixel, at a fraction of the cost.
+      // Test-time pose optimisation coarse to fine: three quarters of the steps on the frame
+      // downscaled to opt.tto_resolution, the rest at the scored size from there. The coarse
+      // steps are cheap; the fine ones remove what the coarse image biases (Gaussians fitted
+      // to fine pixels alias at coarse ones, and the pose would follow the aliasing).
       const int side = std::max(W, H);
       if (opt.tto_resolution > 0 && side > opt.tto_resolution) {
-        const TrainFrame small = downscale_train_frame(f, opt.tto_resolution);
-        p = optimise_test_pose(small, p, a, views, v, opt, fe);
+        const int coarse = opt.tto_steps * 3 / 4;
+        FrameEval at_start, coarse_run;
+        optimise_test_pose(f, p, a, views, v, opt, 0, at_start);  // the starting loss at the scored size
+        const SmplxParams p0 = p;
+        p = optimise_test_pose(downscale_train_frame(f, opt.tto_resolution), p, a, views, v, opt, coarse, coarse_run);
+        p = optimise_test_pose(f, p, a, views, v, opt, opt.tto_steps - coarse, fe);
+        fe.tto_loss_start = at_start.tto_loss_start;
+        if (at_start.tto_loss_start < fe.tto_loss_end) {  // as without coarse steps: never worse than the start
+          p = p0;
+          fe.tto_loss_end = at_start.tto_loss_start;
+        }
       } else {
-        p = optimise_test_pose(f, p, a, views, v, opt, fe);
+        p = optimise_test_pose(f, p, a, views, v, opt, opt.tto_steps, fe);
       }
     }
     const auto t0 = std::chrono::steady_clock::now();

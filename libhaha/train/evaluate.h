@@ -37,7 +37,7 @@ double variant_train_seconds(const std::array<double, 3>& stage_seconds, size_t 
 
 struct EvalOptions {
   int tto_steps = 100;             // test-time pose optimisation steps (0 = off)
-  int tto_resolution = 0;          // > 0: the optimisation sees the frame at most this size (longer side)
+  int tto_resolution = 0;          // > 0: 3/4 of the steps on the frame downscaled to this longer side, then the rest at full size
   double lr_pose = 3e-3;           // global orient, body pose, transl
   double lr_pose_fine = 3e-4;      // jaw, hands
   double tto_w_ssim = 0.1, tto_w_dice = 0.1;  // TTO loss: L2 + w (1 - SSIM) + w Dice
