@@ -175,54 +175,9 @@ const char* preset_names() { return "tiny, standard, paper"; }
 
 namespace {
 
-// Real use on a CPU: the video's size up to 512 px. Coarse to fine where it was measured to
-// pay (docs/results.md "Sharp at 512 px"): the texture doubles with the images from 256^2 to
-// 1024^2 over three levels, half its steps at a quarter and half of the size (cheap there),
-// its rate decaying so that texels seen rarely do not stay speckled. The Gaussians train at
-// full size (at lower levels they settle on poses refined against coarse pixels and lose
-// 0.3-0.6 dB at 512 px), and so does the filtering: what a coarse image does not need, the
-// full one may. Otherwise the tiny schedule's rates (batch 1, a short schedule).
-TrainConfig standard_preset(TrainConfig c) {
-  c.resolution = 0;
-  c.max_resolution = 512;
-  c.batch = 1;
-  c.checkpoint_every = 250;
-  c.log_every = 50;
-  c.s1.steps = 1000;
-  c.s1.lr_offset_init = 1.6e-3;
-  c.s1.lr_offset_final = 1.6e-5;
-  c.s1.lr_rotation = 1e-2;
-  c.s1.lr_scale = 1e-2;
-  c.s1.lr_color = 2e-2;
-  c.s1.lr_pose = 5e-4;
-  c.s1.lr_pose_fine = 5e-5;
-  c.s1.densify_from = 50;
-  c.s1.densify_until = 800;
-  c.s1.densify_every = 100;
-  c.s1.max_gaussians = 40000;
-  c.s1.knn_every = 10;
-  c.s2.steps = 3000;
-  c.s2.levels = "1,1,2";
-  c.s2.lr_texture = 0.03;
-  c.s2.lr_texture_final = 3e-4;
-  c.s2.texture_size = 1024;
-  c.s3.steps = 800;
-  c.s3.prune_every = 100;
-  c.eval_tto_steps = 20;
-  c.eval_lr_pose = 3e-3;
-  return c;
-}
-
-}  // namespace
-
-TrainConfig make_preset(const std::string& name) {
-  TrainConfig c;
-  c.preset = name;
-  if (name == "paper") return c;
-  if (name == "standard") return standard_preset(c);
-  if (name != "tiny") fail("--preset", "unknown preset '" + name + "' (" + preset_names() + ")");
-  // CPU demo: 128 px, one frame per step, a few hundred steps per stage. Learning rates of
-  // the Gaussians are raised so that the short schedule moves them as far as the long one.
+// The CPU demo: 128 px, one frame per step, a few hundred steps per stage. Learning rates of
+// the Gaussians are raised so that the short schedule moves them as far as the long one.
+TrainConfig tiny_preset(TrainConfig c) {
   c.resolution = 128;
   c.batch = 1;
   c.checkpoint_every = 100;
@@ -248,6 +203,38 @@ TrainConfig make_preset(const std::string& name) {
   c.eval_tto_steps = 20;
   c.eval_lr_pose = 3e-3;
   return c;
+}
+
+// Real use on a CPU: the video's size up to 512 px, otherwise tiny's rates and stage-1
+// schedule. Coarse to fine where it was measured to pay (docs/results.md "Sharp at 512 px"):
+// the texture doubles with the images from 256^2 to 1024^2 over three levels, half its steps
+// at a quarter and half of the size (cheap there), its rate decaying so that texels seen
+// rarely do not stay speckled. The Gaussians train at full size (at lower levels they settle
+// on poses refined against coarse pixels and lose 0.3-0.6 dB at 512 px), and so does the
+// filtering, given more steps: what a coarse image does not need, the full one may.
+TrainConfig standard_preset(TrainConfig c) {
+  c = tiny_preset(c);
+  c.resolution = 0;
+  c.max_resolution = 512;
+  c.checkpoint_every = 250;
+  c.log_every = 50;
+  c.s2.steps = 3000;
+  c.s2.levels = "1,1,2";
+  c.s2.lr_texture_final = 3e-4;
+  c.s2.texture_size = 1024;
+  c.s3.steps = 800;
+  return c;
+}
+
+}  // namespace
+
+TrainConfig make_preset(const std::string& name) {
+  TrainConfig c;
+  c.preset = name;
+  if (name == "paper") return c;
+  if (name == "standard") return standard_preset(c);
+  if (name != "tiny") fail("--preset", "unknown preset '" + name + "' (" + preset_names() + ")");
+  return tiny_preset(c);
 }
 
 void set_config_value(TrainConfig& c, const std::string& key, const std::string& value, const std::string& where) {
