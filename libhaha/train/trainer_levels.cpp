@@ -12,10 +12,11 @@ void Trainer::Impl::setup_levels() {
     levels[size_t(s)] = make_level_schedule(*texts[s], stage_steps(s + 1), keys[s]);
     const int L = levels[size_t(s)].num_levels();
     any = any || L > 1;
-    const int coarsest = level_side(std::max(W, H), 0, L);
-    if (L > 1 && level_side(std::min(W, H), 0, L) < 8)
+    const int shorter = level_side(std::min(W, H), 0, L);
+    if (L > 1 && shorter < 8)
       fail("config", std::string(keys[s]) + ": " + std::to_string(L) + " levels make the coarsest images " +
-                         std::to_string(coarsest) + " px on their longer side, too small (fewer levels, or a larger resolution)");
+                         std::to_string(shorter) + " px on their shorter side, too small (at least 8: fewer levels, "
+                         "or a larger resolution)");
   }
   if (texture_side(0) < 4)
     fail("config", "s2.levels: the coarsest texture would be " + std::to_string(texture_side(0)) +
