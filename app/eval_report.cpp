@@ -117,7 +117,7 @@ std::string eval_report_markdown(const EvalReport& r) {
        std::to_string(r.train_resolution) + " px on the longer side), background " + r.background + ", test-time pose optimisation " + std::to_string(r.tto_steps) +
        " steps" +
        (r.tto_steps > 0 && r.tto_resolution > 0 && r.tto_resolution < std::max(r.width, r.height)
-            ? " at " + std::to_string(r.tto_resolution) + " px"
+            ? " (3/4 of them at " + std::to_string(r.tto_resolution) + " px)"
             : std::string()) + (r.antialias ? std::string(", antialiased mesh silhouette") : std::string()) + ", preset " +
        r.preset + ".\n";
   s += "LPIPS: " + std::string(r.lpips_available ? "AlexNet, user-supplied weights" : kLpipsUnavailable) + ".\n";

@@ -14,7 +14,7 @@ namespace haha {
 struct EvalReport {
   std::string run_dir, data_dir, split = "test", background = "black", preset;
   int tto_steps = 0;
-  int tto_resolution = 0;      // test-time pose optimisation at most at this side (0 = as scored)
+  int tto_resolution = 0;      // 3/4 of the test-time pose steps at this side (0 = all at the scored size)
   int width = 0, height = 0;   // the size the frames were scored at
   int train_resolution = 0;    // the longer side the run trained at
   bool antialias = false;  // mesh silhouette antialiased (haha eval --antialias)

@@ -17,7 +17,7 @@ struct EvalRunOptions {
   std::string split = "test";        // train | test
   std::string background = "black";  // black | white
   int tto_steps = -1;                // test-time pose optimisation steps; < 0: the run's
-  int tto_resolution = -1;           // longest side it optimises at (0 = as scored); < 0: the run's
+  int tto_resolution = -1;           // coarse side of test-time pose optimisation (0 = all at the scored size); < 0: the run's
   int frames = 0;                    // > 0: only the first N frames of the split
   int resolution = 0;                // longer side the frames are scored at; 0: the run's training size
   int sheet_frames = 4;              // frames on the contact sheet

@@ -23,8 +23,9 @@ HAHA_COMMAND(eval) {
   sub->add_option("--tto-steps", r.tto_steps,
                   "test-time pose optimisation steps (default: the run's eval.tto_steps; 0 = off)");
   sub->add_option("--tto-resolution", r.tto_resolution,
-                  "longer side of the frames test-time pose optimisation sees, downscaled from the scored size "
-                  "(default: the run's eval.tto_resolution; 0 = as scored)");
+                  "test-time pose optimisation coarse to fine: 3/4 of its steps on the frames downscaled to this "
+                  "longer side, the rest at the scored size (default: the run's eval.tto_resolution; 0 = all at the "
+                  "scored size)");
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--resolution", r.resolution,
                   "score at this longer image side in px, any size (default: the size the run trained at)");

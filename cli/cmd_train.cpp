@@ -18,7 +18,7 @@ HAHA_COMMAND(train) {
   sub->add_option("--data", a->run.data_dir, "dataset directory (haha synth / haha convert)");
   sub->add_option("--model", a->run.model_path, "body model .npz (default: DATA/body_model.npz)");
   sub->add_option("--out", a->run.run_dir, "run directory (config, checkpoints, avatar); required");
-  sub->add_option("--preset", a->run.preset, "tiny (128 px, the demo), standard (coarse to fine up to the video's size, at most 512 px: "
+  sub->add_option("--preset", a->run.preset, "tiny (128 px, the demo), standard (the video's size up to 512 px, the texture coarse to fine: "
                   "real use on a CPU) or paper (the published schedule, for a GPU)")
       ->capture_default_str();
   sub->add_flag("--resume", a->run.resume, "continue the run in --out from its last checkpoint");

@@ -135,7 +135,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"use_dice", K::Bool, &c.use_dice, "ablation switch: silhouette Dice"});
   v.push_back({"eval.tto_steps", K::Int, &c.eval_tto_steps, "test-time pose optimisation steps"});
   v.push_back({"eval.tto_resolution", K::Int, &c.eval_tto_resolution,
-               "test-time pose optimisation on the frames downscaled to at most this longer side (0 = as scored)"});
+               "test-time pose optimisation: 3/4 of its steps on the frames downscaled to this longer side, the rest "
+               "at the scored size (0 = all at the scored size)"});
   v.push_back({"eval.antialias", K::Bool, &c.eval_antialias,
                "antialiased mesh silhouette in evaluation (haha eval --antialias / --no-antialias win)"});
   v.push_back({"eval.lr.pose", K::Double, &c.eval_lr_pose, "test-time body pose / transl lr"});

@@ -139,7 +139,7 @@ struct TrainConfig {
   bool use_sobel = true, use_opacity_reg = true, use_dice = true;
   // Test-time pose optimisation defaults for `haha eval` (saved with the run).
   int eval_tto_steps = 100;
-  int eval_tto_resolution = 0;   // > 0: test-time pose optimisation on frames at most this size (longer side)
+  int eval_tto_resolution = 0;   // > 0: 3/4 of the test-time pose steps at this longer side (train/evaluate.h)
   bool eval_antialias = false;   // antialiased mesh silhouette (haha eval --antialias / --no-antialias win)
   double eval_lr_pose = 3e-3, eval_lr_pose_fine = 3e-4;
   double max_cache_mb = 2048;    // per-frame caches of stages 2 and 3 (posed mesh rasters)
