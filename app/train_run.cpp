@@ -27,6 +27,29 @@ namespace haha {
 namespace fs = std::filesystem;
 using ojson = nlohmann::ordered_json;
 
+namespace {
+
+// The pose pre-fit to the masks (train/silhouette_fit.h) with progress lines and a summary.
+void prefit_poses(const BodyModel& body, std::vector<TrainFrame>& frames, const Stage0Config& s0,
+                  const std::function<void(const std::string&)>& log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  const SilhouetteFitReport fit = fit_poses_to_masks(body, frames, s0, [&](int done, int total) {
+    if (done % 10 != 0 || done == total) return;
+    log("[pose pre-fit] " + std::to_string(done) + "/" + std::to_string(total) + " frames | ETA " +
+        format_duration(seconds() / done * (total - done)));
+  });
+  const int n = int(frames.size());
+  double a = 0, b = 0;
+  for (size_t i = 0; i < fit.loss_start.size(); ++i) a += fit.loss_start[i], b += fit.loss_end[i];
+  char line[160];
+  std::snprintf(line, sizeof line, "pose pre-fit to the masks: %d frames x %d steps, silhouette loss %.4g -> %.4g (%.1f s)",
+                n, s0.steps, a / n, b / n, seconds());
+  log(line);
+}
+
+}  // namespace
+
 TrainRunResult run_training(const TrainRunOptions& opt) {
   auto log = [&](const std::string& s) {
     if (opt.log)
@@ -88,22 +111,8 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
   const int num_frames = int(input.frames.size());
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
-  if (cfg.s0.steps > 0 && !opt.resume) {  // a resumed run has its refined poses in the checkpoint
-    const auto t0 = std::chrono::steady_clock::now();
-    const SilhouetteFitReport fit = fit_poses_to_masks(body, input.frames, cfg.s0, [&](int done, int total) {
-      if (done % 10 != 0 || done == total) return;
-      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      log("[pose pre-fit] " + std::to_string(done) + "/" + std::to_string(total) + " frames | ETA " +
-          format_duration(el / done * (total - done)));
-    });
-    double a = 0, b = 0;
-    for (size_t i = 0; i < fit.loss_start.size(); ++i) a += fit.loss_start[i], b += fit.loss_end[i];
-    char line[160];
-    std::snprintf(line, sizeof line, "pose pre-fit to the masks: %d frames x %d steps, silhouette loss %.4g -> %.4g (%.1f s)",
-                  num_frames, cfg.s0.steps, a / num_frames, b / num_frames,
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    log(line);
-  }
+  if (cfg.s0.steps > 0 && !opt.resume)  // a resumed run has its refined poses in the checkpoint
+    prefit_poses(body, input.frames, cfg.s0, log);
   Trainer trainer(cfg, std::move(input), device);
   if (device == Device::cuda) log("device: cuda, " + gpu_description());
 
