@@ -94,9 +94,7 @@ BenchResult run_bench(const BenchRunOptions& o) {
   const Split split = parse_split(o.split, "--split");
 
   BenchEval ev;
-  if (o.resolution != 0 && (o.resolution < 16 || o.resolution > 8192)) fail("--resolution", "must be 0 or in 16..8192");
-  ev.frames = dataset_frames(
-      ds, split, o.resolution > 0 ? o.resolution : train_resolution(info.config, std::max(ds.width, ds.height)));
+  ev.frames = dataset_frames(ds, split, scoring_resolution(ds, info.config, o.resolution));
   if (ev.frames.empty()) fail(data, "no " + o.split + " frames");
   if (o.frames > 0 && size_t(o.frames) < ev.frames.size()) ev.frames.resize(size_t(o.frames));
   ev.options.tto_steps = o.tto_steps;
@@ -201,7 +199,7 @@ BenchResult run_bench(const BenchRunOptions& o) {
       }
       setup.input.body = &filtered.body;
       setup.input.premultiplied = ev.options.premultiplied;
-      setup.input.frames = dataset_frames(ds, Split::train, train_resolution(info.config, std::max(ds.width, ds.height)));
+      setup.input.frames = dataset_frames(ds, Split::train, dataset_train_resolution(ds, info.config));
       setup.stage2 = read_checkpoint(ck);
       setup.checkpoint_path = ck;
       const std::vector<FilterPoint> re = sweep_opacity_weights(setup, rerun, ev, log);

@@ -31,9 +31,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   const Avatar filtered = load_run_avatar(run);
   const Avatar full = load_stage1_avatar(run, filtered.body);
   Dataset ds = read_dataset(data, LoadPixels::headers);
-  if (o.resolution != 0 && (o.resolution < 16 || o.resolution > 8192)) fail("--resolution", "must be 0 or in 16..8192");
-  const int trained_at = train_resolution(info.config, std::max(ds.width, ds.height));
-  std::vector<TrainFrame> frames = dataset_frames(ds, split, o.resolution > 0 ? o.resolution : trained_at);
+  std::vector<TrainFrame> frames = dataset_frames(ds, split, scoring_resolution(ds, info.config, o.resolution));
   if (frames.empty()) fail(data, "no " + o.split + " frames");
   if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
 
@@ -70,7 +68,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.tto_resolution = opt.tto_resolution;
   r.width = frames[0].camera.width;
   r.height = frames[0].camera.height;
-  r.train_resolution = trained_at;
+  r.train_resolution = dataset_train_resolution(ds, info.config);
   r.antialias = opt.antialias;
   r.lpips_available = alex != nullptr;
   // What the run changed from its preset: the user's keys, and for estimated fits

@@ -1,5 +1,9 @@
 #include "app/train_frames.h"
 
+#include <algorithm>
+
+#include "core/error.h"
+
 #include "train/train_frame.h"
 
 namespace haha {
@@ -8,6 +12,15 @@ bool dataset_premultiplied(const Dataset& ds, const std::string& setting) {
   // dataset.json's flag; files from before it: as they were read then.
   const bool flag = ds.premultiplied >= 0 ? ds.premultiplied == 1 : ds.source.rfind("haha synth", 0) == 0;
   return resolve_premultiplied(setting, flag);
+}
+
+int dataset_train_resolution(const Dataset& ds, const TrainConfig& c) {
+  return train_resolution(c, std::max(ds.width, ds.height));
+}
+
+int scoring_resolution(const Dataset& ds, const TrainConfig& c, int requested) {
+  if (requested != 0 && (requested < 16 || requested > 8192)) fail("--resolution", "must be 0 or in 16..8192");
+  return requested > 0 ? requested : dataset_train_resolution(ds, c);
 }
 
 std::vector<TrainFrame> dataset_frames(Dataset& ds, Split split, int resolution) {

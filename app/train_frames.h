@@ -20,4 +20,12 @@ bool dataset_premultiplied(const Dataset& ds, const std::string& setting);
 // Throws haha::Error naming the file for unreadable images.
 std::vector<TrainFrame> dataset_frames(Dataset& ds, Split split, int resolution);
 
+// The longer side a run with config `c` trains at on this dataset (train/config.h
+// train_resolution of the dataset's size).
+int dataset_train_resolution(const Dataset& ds, const TrainConfig& c);
+
+// The longer side `haha eval` / `haha bench` score at: `requested` (--resolution) when > 0,
+// else the run's training size. Throws haha::Error "--resolution: ..." outside 0 or 16..8192.
+int scoring_resolution(const Dataset& ds, const TrainConfig& c, int requested);
+
 }  // namespace haha

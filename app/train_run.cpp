@@ -105,7 +105,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   TrainInput input;
   input.body = &body;
   input.premultiplied = dataset_premultiplied(ds, cfg.premultiplied);
-  input.frames = dataset_frames(ds, Split::train, train_resolution(cfg, std::max(ds.width, ds.height)));
+  input.frames = dataset_frames(ds, Split::train, dataset_train_resolution(ds, cfg));
   if (input.frames.empty()) fail(info.data_path, "the dataset has no training frames");
   input.lpips = info.lpips_weights_path.empty() ? nullptr : &lw;
   for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
@@ -130,7 +130,10 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
                      : info.lpips_weights_path.empty() ? ", LPIPS off (no --lpips-weights)"
                                                        : ", LPIPS off (no VGG part in the weights, or images too small)";
     log("training " + std::to_string(num_frames) + " frames at " + std::to_string(W) + "x" + std::to_string(H) +
-        ", preset " + cfg.preset + (cfg.s1.levels.empty() ? "" : " (coarse to fine, levels " + cfg.s1.levels + " / " + cfg.s2.levels + " / " + cfg.s3.levels + ")") +
+        ", preset " + cfg.preset + (cfg.s1.levels.empty() && cfg.s2.levels.empty() && cfg.s3.levels.empty()
+                                  ? ""
+                                  : " (coarse to fine, levels per stage '" + cfg.s1.levels + "' / '" + cfg.s2.levels +
+                                        "' / '" + cfg.s3.levels + "')") +
         ", " + std::to_string(trainer.num_gaussians()) + " Gaussians at start" + lp);
   }
 

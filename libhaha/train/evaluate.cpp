@@ -54,11 +54,11 @@ namespace {
 // `steps` of test-time pose optimisation on frame f: the avatar frozen, the frame's pose and
 // transl move (loss L2 + w (1 - SSIM) + w Dice). Returns the pose of the lowest loss seen
 // (the start included); sets fe's loss at the start and that lowest loss.
-SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Avatar& a, const AvatarViews& views,
-                               const EvalVariant& v, const EvalOptions& opt, int steps, FrameEval& fe) {
+SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Lbs<float>& lbs, const Avatar& a,
+                               const AvatarViews& views, const EvalVariant& v, const EvalOptions& opt, int steps,
+                               FrameEval& fe) {
   const BodyModel& body = a.body;
   const int W = f.camera.width, H = f.camera.height, P = W * H;
-  Lbs<float> lbs(body);
   LbsCache<float> cache;
   AvatarRenderBuffers buf;
   LossScratch<float> scratch;
@@ -157,17 +157,17 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
       if (opt.tto_resolution > 0 && side > opt.tto_resolution) {
         const int coarse = opt.tto_steps * 3 / 4;
         FrameEval at_start, coarse_run;
-        optimise_test_pose(f, p, a, views, v, opt, 0, at_start);  // the starting loss at the scored size
+        optimise_test_pose(f, p, lbs, a, views, v, opt, 0, at_start);  // the starting loss at the scored size
         const SmplxParams p0 = p;
-        p = optimise_test_pose(downscale_train_frame(f, opt.tto_resolution), p, a, views, v, opt, coarse, coarse_run);
-        p = optimise_test_pose(f, p, a, views, v, opt, opt.tto_steps - coarse, fe);
+        p = optimise_test_pose(downscale_train_frame(f, opt.tto_resolution), p, lbs, a, views, v, opt, coarse, coarse_run);
+        p = optimise_test_pose(f, p, lbs, a, views, v, opt, opt.tto_steps - coarse, fe);
         fe.tto_loss_start = at_start.tto_loss_start;
         if (at_start.tto_loss_start < fe.tto_loss_end) {  // as without coarse steps: never worse than the start
           p = p0;
           fe.tto_loss_end = at_start.tto_loss_start;
         }
       } else {
-        p = optimise_test_pose(f, p, a, views, v, opt, opt.tto_steps, fe);
+        p = optimise_test_pose(f, p, lbs, a, views, v, opt, opt.tto_steps, fe);
       }
     }
     const auto t0 = std::chrono::steady_clock::now();
