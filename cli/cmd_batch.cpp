@@ -30,11 +30,10 @@ HAHA_COMMAND(batch) {
   run->add_flag("--retry-failed", r->retry_failed, "try a subject that failed as bad input again with the same line");
   run->add_option("--keypoint-tool", r->keypoint_tool, "fit-video's tools/keypoints folder (default: found next to haha)");
   run->add_option("--heartbeat", r->heartbeat_s, "seconds between rewrites of OUT/ID/running.json")->capture_default_str();
-  CLI::App* root_app = &app;
-  run->callback([r, root_app] {
+  run->callback([r] {
     // Under Slurm, one thread per allocated CPU unless --threads says otherwise.
     const char* cpus = std::getenv("SLURM_CPUS_PER_TASK");
-    if (root_app->get_option("--threads")->count() == 0 && cpus && std::atoi(cpus) > 0)
+    if (haha::cli::requested_threads() == 0 && cpus && std::atoi(cpus) > 0)
       haha::set_num_threads(std::atoi(cpus));
     const haha::BatchRunResult res = haha::run_batch_subject(*r);
     if (res.exit_code == haha::kBatchDone)

@@ -19,6 +19,9 @@ namespace haha::cli {
 using CommandSetup = void (*)(CLI::App& app);
 bool register_command(const char* name, CommandSetup setup);
 
+// The value of `--threads`, wherever on the command line it stood; 0 when not given.
+int requested_threads();
+
 }  // namespace haha::cli
 
 #define HAHA_COMMAND(name)                                                                        \
