@@ -172,297 +172,345 @@ void sort_keys(TubeDef& t) {
   std::sort(t.keys.begin(), t.keys.end(), [](const Key& a, const Key& b) { return a.a < b.a; });
 }
 
-Body build_body(const Params& P) {
+// Heights above the floor and the sizes the parts share, for given proportions; world y
+// puts the pelvis joint at -0.35 (SMPL-X-like).
+struct Measures {
+  double s, g, leg, shw, arm, hs, belly, hipw, chest, neck;
+  double torso;  // longer legs, shorter trunk: height kept
+  double sg;
+  double h_ankle, h_knee, h_hip, h_pelvis, h_sp1, h_sp2, h_sp3, h_sh, h_neck, h_headj, h_eye;
+  double yoff;
+  double head;   // head dimensions scale
+  double eye_x;  // eye centre, off the midline
+  double hip_x;
+  // Arms and hands (T-pose along +X).
+  double arm_z, collar_x, shoulder_x, elbow_x, wrist_x, hand, y_arm, palm_y;
+  double Y(double h) const { return h + yoff; }
+};
+
+Measures measures(const Params& P) {
   const auto& p = P.p;
-  const double s = 0.98 * p[pHeight], g = p[pGirth], leg = p[pLeg], shw = p[pShoulder], arm = p[pArm];
-  const double hs = p[pHead], belly = p[pBelly], hipw = p[pHip], chest = p[pChest], neck = p[pNeck];
-  const double torso = 1 - (leg - 1) * 0.9;  // longer legs, shorter trunk: height kept
-  const double sg = std::sqrt(g);
-  // Heights above the floor; world y puts the pelvis joint at -0.35 (SMPL-X-like).
-  const double h_ankle = 0.08 * s, h_knee = h_ankle + 0.40 * s * leg, h_hip = h_knee + 0.40 * s * leg;
-  const double h_pelvis = h_hip + 0.05 * s * torso;
-  const double h_sp1 = h_pelvis + 0.10 * s * torso, h_sp2 = h_pelvis + 0.23 * s * torso;
-  const double h_sp3 = h_pelvis + 0.36 * s * torso, h_sh = h_pelvis + 0.45 * s * torso;
-  const double h_neck = h_pelvis + 0.535 * s * torso, h_headj = h_neck + 0.08 * s * neck;
-  const double h_eye = h_headj + 0.055 * s * hs;
-  const double yoff = -0.35 - h_pelvis;
-  auto Y = [&](double h) { return h + yoff; };
-  const double head = s * hs;  // head dimensions scale
+  Measures m;
+  m.s = 0.98 * p[pHeight], m.g = p[pGirth], m.leg = p[pLeg], m.shw = p[pShoulder], m.arm = p[pArm];
+  m.hs = p[pHead], m.belly = p[pBelly], m.hipw = p[pHip], m.chest = p[pChest], m.neck = p[pNeck];
+  const double s = m.s, leg = m.leg;
+  m.torso = 1 - (leg - 1) * 0.9;
+  const double torso = m.torso;
+  m.sg = std::sqrt(m.g);
+  m.h_ankle = 0.08 * s, m.h_knee = m.h_ankle + 0.40 * s * leg, m.h_hip = m.h_knee + 0.40 * s * leg;
+  m.h_pelvis = m.h_hip + 0.05 * s * torso;
+  m.h_sp1 = m.h_pelvis + 0.10 * s * torso, m.h_sp2 = m.h_pelvis + 0.23 * s * torso;
+  m.h_sp3 = m.h_pelvis + 0.36 * s * torso, m.h_sh = m.h_pelvis + 0.45 * s * torso;
+  m.h_neck = m.h_pelvis + 0.535 * s * torso, m.h_headj = m.h_neck + 0.08 * s * m.neck;
+  m.h_eye = m.h_headj + 0.055 * s * m.hs;
+  m.yoff = -0.35 - m.h_pelvis;
+  m.head = s * m.hs;
+  m.eye_x = 0.032 * m.head * P.d.eye_spacing;
+  m.hip_x = 0.085 * m.hipw;
+  m.arm_z = -0.015;
+  m.collar_x = 0.075 * m.shw, m.shoulder_x = 0.185 * m.shw;
+  m.elbow_x = m.shoulder_x + 0.265 * s * m.arm, m.wrist_x = m.elbow_x + 0.25 * s * m.arm;
+  m.hand = s * m.arm;
+  m.y_arm = m.Y(m.h_sh);
+  m.palm_y = m.y_arm - 0.002 * m.hand;
+  return m;
+}
 
-  Body body;
-  body.y_shoulder = Y(h_sh);
-  body.y_hip = Y(h_hip);
+// Torso: crotch to the top of the neck (its top is hidden inside the head).
+TubeDef torso_tube(const Measures& M) {
+  const double s = M.s, g = M.g, shw = M.shw, belly = M.belly, hipw = M.hipw, chest = M.chest, neck = M.neck;
+  const double torso = M.torso, sg = M.sg, h_hip = M.h_hip, h_pelvis = M.h_pelvis, h_sp1 = M.h_sp1;
+  const double h_sp2 = M.h_sp2, h_sp3 = M.h_sp3, h_sh = M.h_sh, h_neck = M.h_neck, h_headj = M.h_headj;
+  TubeDef t;
+  t.name = "torso";
+  const double h0 = h_hip - 0.095 * s, h1 = h_headj + 0.012 * s;
+  t.origin = V3(0, M.Y(h0), 0);
+  t.dir = V3(0, 1, 0);
+  t.e1 = V3(0, 0, -1);  // seam at the back; e2 = -X
+  t.length = h1 - h0;
+  t.cap0 = 0.07 * s;
+  t.cap1 = 0.03 * s;
+  t.exponent = 2.4;
+  auto key = [&](double h, double rx, double rz, double cz) { t.keys.push_back({h - h0, rz, rx, -cz, 0}); };
+  key(h0, 0.140 * hipw * g, 0.090 * g, -0.005);
+  key(h_hip - 0.04 * s, 0.165 * hipw * g, 0.102 * g, -0.010);
+  key(h_hip, 0.172 * hipw * g, 0.106 * g, -0.012);
+  key(h_pelvis + 0.04 * s, 0.160 * hipw * g, 0.100 * g + 0.3 * belly, -0.005 + 0.15 * belly);
+  key(h_sp1 + 0.02 * s, 0.135 * g, 0.095 * g + belly, 0.6 * belly);
+  key(h_sp2, 0.148 * g, 0.100 * g * std::sqrt(chest) + 0.4 * belly, 0.008 + 0.3 * belly);
+  key(h_sp2 + 0.09 * s * torso, 0.162 * g * shw, 0.108 * g * chest, 0.015 * chest);
+  key(h_sp3 + 0.03 * s * torso, 0.175 * g * shw, 0.100 * g * chest, 0.0);
+  key(h_sh - 0.005 * s, 0.185 * sg * shw, 0.084 * g, -0.012);
+  key(h_sh + 0.04 * s, 0.125 * shw, 0.068 * g, -0.016);
+  key(h_sh + 0.07 * s, 0.075 * sg, 0.060 * sg, -0.014);
+  key(h_neck, 0.064 * sg, 0.058 * sg, -0.012);
+  key(h_neck + 0.04 * s * neck, 0.054 * sg, 0.053 * sg, -0.006);
+  key(h1, 0.050 * sg, 0.050 * sg, -0.004);
+  sort_keys(t);
+  t.joints = {{h_pelvis - h0, jPelvis}, {h_sp1 - h0, jSpine1}, {h_sp2 - h0, jSpine2},
+              {h_sp3 - h0, jSpine3}, {h_neck - h0, jNeck}};
+  t.owner = jPelvis;
+  t.bounds = {{h_sp1 - h0, jSpine1, 0.045 * s}, {h_sp2 - h0, jSpine2, 0.045 * s},
+              {h_sp3 - h0, jSpine3, 0.045 * s}, {h_neck - h0, jNeck, 0.03 * s},
+              {h_headj - h0, jHead, 0.008 * s}};
+  t.extra = Extra::torso;
+  return t;
+}
 
-  // Torso: crotch to the top of the neck (its top is hidden inside the head).
-  {
-    TubeDef t;
-    t.name = "torso";
-    const double h0 = h_hip - 0.095 * s, h1 = h_headj + 0.012 * s;
-    t.origin = V3(0, Y(h0), 0);
-    t.dir = V3(0, 1, 0);
-    t.e1 = V3(0, 0, -1);  // seam at the back; e2 = -X
-    t.length = h1 - h0;
-    t.cap0 = 0.07 * s;
-    t.cap1 = 0.03 * s;
-    t.exponent = 2.4;
-    auto key = [&](double h, double rx, double rz, double cz) { t.keys.push_back({h - h0, rz, rx, -cz, 0}); };
-    key(h0, 0.140 * hipw * g, 0.090 * g, -0.005);
-    key(h_hip - 0.04 * s, 0.165 * hipw * g, 0.102 * g, -0.010);
-    key(h_hip, 0.172 * hipw * g, 0.106 * g, -0.012);
-    key(h_pelvis + 0.04 * s, 0.160 * hipw * g, 0.100 * g + 0.3 * belly, -0.005 + 0.15 * belly);
-    key(h_sp1 + 0.02 * s, 0.135 * g, 0.095 * g + belly, 0.6 * belly);
-    key(h_sp2, 0.148 * g, 0.100 * g * std::sqrt(chest) + 0.4 * belly, 0.008 + 0.3 * belly);
-    key(h_sp2 + 0.09 * s * torso, 0.162 * g * shw, 0.108 * g * chest, 0.015 * chest);
-    key(h_sp3 + 0.03 * s * torso, 0.175 * g * shw, 0.100 * g * chest, 0.0);
-    key(h_sh - 0.005 * s, 0.185 * sg * shw, 0.084 * g, -0.012);
-    key(h_sh + 0.04 * s, 0.125 * shw, 0.068 * g, -0.016);
-    key(h_sh + 0.07 * s, 0.075 * sg, 0.060 * sg, -0.014);
-    key(h_neck, 0.064 * sg, 0.058 * sg, -0.012);
-    key(h_neck + 0.04 * s * neck, 0.054 * sg, 0.053 * sg, -0.006);
-    key(h1, 0.050 * sg, 0.050 * sg, -0.004);
-    sort_keys(t);
-    t.joints = {{h_pelvis - h0, jPelvis}, {h_sp1 - h0, jSpine1}, {h_sp2 - h0, jSpine2},
-                {h_sp3 - h0, jSpine3}, {h_neck - h0, jNeck}};
-    t.owner = jPelvis;
-    t.bounds = {{h_sp1 - h0, jSpine1, 0.045 * s}, {h_sp2 - h0, jSpine2, 0.045 * s},
-                {h_sp3 - h0, jSpine3, 0.045 * s}, {h_neck - h0, jNeck, 0.03 * s},
-                {h_headj - h0, jHead, 0.008 * s}};
-    t.extra = Extra::torso;
-    body.tubes.push_back(t);
+// Head: from inside the neck (under the chin) to the top of the skull; the face is
+// displaced onto it (eval_vertices). Coordinates relative to eye level, scaled by `head`.
+TubeDef head_tube(const Measures& M) {
+  const double head = M.head, h_eye = M.h_eye;
+  TubeDef t;
+  t.name = "head";
+  const double r0 = -0.135, r1 = 0.118;
+  t.origin = V3(0, M.Y(h_eye + r0 * head), 0);
+  t.dir = V3(0, 1, 0);
+  t.e1 = V3(0, 0, -1);
+  t.length = (r1 - r0) * head;
+  t.cap0 = 0.012 * head;
+  t.cap1 = 0.03 * head;
+  auto key = [&](double yr, double rx, double rz, double cz) {
+    t.keys.push_back({(yr - r0) * head, rz * head, rx * head, -cz * head, 0});
+  };
+  key(-0.135, 0.040, 0.035, 0.025);
+  key(-0.120, 0.048, 0.052, 0.038);
+  key(-0.105, 0.056, 0.062, 0.036);
+  key(-0.080, 0.064, 0.074, 0.030);
+  key(-0.050, 0.070, 0.086, 0.022);
+  key(-0.020, 0.074, 0.094, 0.016);
+  key(0.000, 0.076, 0.097, 0.013);
+  key(0.040, 0.079, 0.099, 0.005);
+  key(0.080, 0.075, 0.092, -0.002);
+  key(0.118, 0.055, 0.068, -0.008);
+  t.joints = {{M.h_headj - (h_eye + r0 * head), jHead}, {(-0.035 - r0) * head, jJawJ}};
+  t.owner = jHead;
+  t.extra = Extra::head;
+  t.face = true;
+  t.uv_density = 1.8;  // faces deserve texels
+  return t;
+}
+
+Face head_face(const Measures& M, const Params& P) {
+  const double head = M.head;
+  Face f;
+  f.y_eye = M.Y(M.h_eye);
+  f.hs = head;
+  f.eye_x = M.eye_x;
+  f.z_jaw = 0.02 * head;
+  f.y_mouth = M.Y(M.h_eye) - 0.064 * head;
+  f.y_neck_lo = M.Y(M.h_eye) - 0.128 * head;
+  f.y_neck_hi = M.Y(M.h_eye) - 0.100 * head;
+  f.ear_z = -0.008 * head;
+  f.d = P.d;
+  for (int e = 0; e < kExprParams; ++e) f.expr[e] = P.p[kShapeParams + e];
+  return f;
+}
+
+// Eyes: spheres behind the eyelids, rotating about their centres.
+TubeDef eye_tube(const Measures& M) {
+  const double head = M.head, eye_x = M.eye_x;
+  // Undisplaced head surface in front of the eye: ellipse of the eye-level key.
+  const double rx = 0.076 * head, rz = 0.097 * head, cz = 0.013 * head;
+  const double zs = cz + rz * std::sqrt(std::max(0.0, 1 - (eye_x / rx) * (eye_x / rx)));
+  const double re = 0.012 * head;
+  TubeDef t;
+  t.name = "eye_l";
+  t.origin = V3(eye_x, M.Y(M.h_eye), zs - 0.001 * head - 2 * re);
+  t.dir = V3(0, 0, 1);
+  t.e1 = V3(0, -1, 0);
+  t.length = 2 * re;
+  t.cap0 = t.cap1 = re;
+  t.keys = {{0, re, re, 0, 0}, {2 * re, re, re, 0, 0}};
+  t.regress_all = jEyeL;
+  t.owner = jEyeL;
+  t.uv_density = 1.5;
+  return t;
+}
+
+// Legs: from inside the pelvis down to the ankle (the bottom is hidden in the foot).
+TubeDef leg_tube(const Measures& M) {
+  const double s = M.s, g = M.g, leg = M.leg, sg = M.sg, h_ankle = M.h_ankle, h_knee = M.h_knee, h_hip = M.h_hip;
+  TubeDef t;
+  t.name = "leg_l";
+  const double h0 = h_hip + 0.075 * s, h1 = h_ankle - 0.04 * s;
+  t.origin = V3(M.hip_x, M.Y(h0), 0);
+  t.dir = V3(0, -1, 0);
+  t.e1 = V3(-1, 0, 0);  // seam on the inner side; e2 = -Z
+  t.length = h0 - h1;
+  t.cap0 = 0.06 * s;
+  t.cap1 = 0.03 * s;
+  auto key = [&](double h, double rx, double rz, double cz) { t.keys.push_back({h0 - h, rx, rz, 0, -cz}); };
+  key(h0, 0.075 * g, 0.075 * g, 0);
+  key(h_hip, 0.088 * g, 0.088 * g, -0.005);
+  key(h_hip - 0.15 * s * leg, 0.077 * g, 0.078 * g, 0.0);
+  key(h_knee + 0.07 * s, 0.057 * g, 0.058 * g, 0.003);
+  key(h_knee, 0.050 * sg, 0.052 * sg, 0.005);
+  key(h_knee - 0.11 * s, 0.054 * g, 0.060 * g, -0.012);
+  key(h_knee - 0.26 * s, 0.039 * sg, 0.042 * sg, -0.005);
+  key(h_ankle, 0.032, 0.036, 0);
+  key(h1, 0.030, 0.032, 0);
+  sort_keys(t);
+  t.joints = {{h0 - h_hip, jHipL}, {h0 - h_knee, jKneeL}, {h0 - h_ankle, jAnkleL}};
+  t.owner = jPelvis;
+  t.bounds = {{h0 - h_hip, jHipL, 0.05 * s}, {h0 - h_knee, jKneeL, 0.04 * s}, {h0 - h_ankle, jAnkleL, 0.025 * s}};
+  return t;
+}
+
+// Feet: heel to toes along +Z (slightly turned out), sole on the floor.
+TubeDef foot_tube(const Measures& M) {
+  const double s = M.s;
+  TubeDef t;
+  t.name = "foot_l";
+  t.origin = V3(M.hip_x + 0.005, M.Y(0), -0.06 * s);
+  t.dir = unit(V3(0.08, 0, 1));
+  t.e1 = V3(0, -1, 0);  // seam under the sole; e2 = +X
+  t.length = 0.255 * s;
+  t.cap0 = 0.03 * s;
+  t.cap1 = 0.025 * s;
+  t.exponent = 2.6;
+  auto key = [&](double a, double rv, double rw, double cw) { t.keys.push_back({a * s, rv * s, rw * s, -rv * s, cw * s}); };
+  key(0.0, 0.035, 0.030, 0);
+  key(0.04, 0.045, 0.034, 0);
+  key(0.075, 0.052, 0.037, 0);
+  key(0.13, 0.036, 0.044, 0.003);
+  key(0.175, 0.021, 0.047, 0.004);
+  key(0.22, 0.016, 0.042, 0.002);
+  key(0.255, 0.014, 0.035, 0);
+  t.joints = {{0.175 * s, jFootL}};
+  t.owner = jAnkleL;
+  t.bounds = {{0.175 * s, jFootL, 0.02 * s}};
+  return t;
+}
+
+// Arms: T-pose along +X from inside the chest (collar) past the wrist.
+TubeDef arm_tube(const Measures& M) {
+  const double g = M.g, sg = M.sg, shw = M.shw, hand = M.hand;
+  const double collar_x = M.collar_x, shoulder_x = M.shoulder_x, elbow_x = M.elbow_x, wrist_x = M.wrist_x;
+  TubeDef t;
+  t.name = "arm_l";
+  const double x0 = 0.045 * shw, x1 = wrist_x + 0.02 * hand;
+  t.origin = V3(x0, M.y_arm, M.arm_z);
+  t.dir = V3(1, 0, 0);
+  t.e1 = V3(0, -1, 0);  // seam underneath; e2 = -Z
+  t.length = x1 - x0;
+  t.cap0 = 0.04;
+  t.cap1 = 0.018 * hand;
+  auto key = [&](double x, double rv, double rd) { t.keys.push_back({x - x0, rv, rd, 0, 0}); };
+  key(x0, 0.045 * sg, 0.045 * sg);
+  key(collar_x, 0.050 * g, 0.050 * g);
+  key(shoulder_x - 0.03, 0.060 * g, 0.057 * g);
+  key(shoulder_x + 0.06, 0.052 * g, 0.050 * g);
+  key(elbow_x - 0.06, 0.041 * g, 0.043 * g);
+  key(elbow_x, 0.036 * sg, 0.039 * sg);
+  key(elbow_x + 0.07, 0.041 * g, 0.046 * g);
+  key(wrist_x - 0.06, 0.028 * sg, 0.034 * sg);
+  key(wrist_x, 0.021 * hand, 0.030 * hand);
+  key(x1, 0.020 * hand, 0.029 * hand);
+  sort_keys(t);
+  t.joints = {{collar_x - x0, jCollarL}, {shoulder_x - x0, jShoulderL}, {elbow_x - x0, jElbowL}, {wrist_x - x0, jWristL}};
+  t.owner = jCollarL;
+  t.bounds = {{shoulder_x - x0, jShoulderL, 0.045}, {elbow_x - x0, jElbowL, 0.035}, {wrist_x - x0, jWristL, 0.02 * hand}};
+  return t;
+}
+
+// Hands: palm (wrist to knuckles), four fingers and a thumb; palm down, thumb forward.
+constexpr double kKnuckleX[4] = {0.088, 0.090, 0.079, 0.086};  // index, middle, pinky, ring
+constexpr double kKnuckleZ[4] = {0.028, 0.009, -0.028, -0.010};
+constexpr double kFingerSpread[4] = {0.10, 0.02, -0.17, -0.07};  // radians about Y, toward +Z
+constexpr double kSegLen[5][3] = {{0.042, 0.025, 0.021}, {0.047, 0.029, 0.023}, {0.034, 0.020, 0.019},
+                                  {0.044, 0.027, 0.022}, {0.040, 0.032, 0.027}};
+constexpr double kFingerR[5] = {0.0095, 0.0098, 0.0082, 0.0092, 0.0110};
+
+TubeDef palm_tube(const Measures& M) {
+  const double hand = M.hand, arm_z = M.arm_z;
+  TubeDef t;
+  t.name = "palm_l";
+  const double x0 = M.wrist_x - 0.012 * hand;
+  t.origin = V3(x0, M.palm_y, arm_z);
+  t.dir = V3(1, 0, 0);
+  t.e1 = V3(0, 0, -1);  // seam along the little-finger edge; e2 = +Y
+  t.length = 0.10 * hand;
+  t.cap0 = 0.012 * hand;
+  t.cap1 = 0.010 * hand;
+  t.exponent = 2.6;
+  auto key = [&](double a, double rw, double rt) { t.keys.push_back({a * hand, rw * hand, rt * hand, 0, 0}); };
+  key(0.0, 0.026, 0.017);
+  key(0.02, 0.034, 0.018);
+  key(0.06, 0.041, 0.016);
+  key(0.09, 0.044, 0.0135);
+  key(0.10, 0.043, 0.012);
+  t.owner = jWristL;
+  t.extra = Extra::palm;
+  t.uv_density = 1.2;
+  for (int f = 0; f < 4; ++f) {
+    t.finger_z[f] = arm_z + kKnuckleZ[f] * hand;
+    t.finger_joint[f] = hand_joint(f, 0);
   }
+  return t;
+}
 
-  // Head: from inside the neck (under the chin) to the top of the skull; the face is
-  // displaced onto it (eval_vertices). Coordinates relative to eye level, scaled by `head`.
-  const double eye_x = 0.032 * head * P.d.eye_spacing;
-  {
-    TubeDef t;
-    t.name = "head";
-    const double r0 = -0.135, r1 = 0.118;
-    t.origin = V3(0, Y(h_eye + r0 * head), 0);
-    t.dir = V3(0, 1, 0);
-    t.e1 = V3(0, 0, -1);
-    t.length = (r1 - r0) * head;
-    t.cap0 = 0.012 * head;
-    t.cap1 = 0.03 * head;
-    auto key = [&](double yr, double rx, double rz, double cz) {
-      t.keys.push_back({(yr - r0) * head, rz * head, rx * head, -cz * head, 0});
-    };
-    key(-0.135, 0.040, 0.035, 0.025);
-    key(-0.120, 0.048, 0.052, 0.038);
-    key(-0.105, 0.056, 0.062, 0.036);
-    key(-0.080, 0.064, 0.074, 0.030);
-    key(-0.050, 0.070, 0.086, 0.022);
-    key(-0.020, 0.074, 0.094, 0.016);
-    key(0.000, 0.076, 0.097, 0.013);
-    key(0.040, 0.079, 0.099, 0.005);
-    key(0.080, 0.075, 0.092, -0.002);
-    key(0.118, 0.055, 0.068, -0.008);
-    t.joints = {{h_headj - (h_eye + r0 * head), jHead}, {(-0.035 - r0) * head, jJawJ}};
-    t.owner = jHead;
-    t.extra = Extra::head;
-    t.face = true;
-    t.uv_density = 1.8;  // faces deserve texels
-    body.tubes.push_back(t);
-    Face& f = body.face;
-    f.y_eye = Y(h_eye);
-    f.hs = head;
-    f.eye_x = eye_x;
-    f.z_jaw = 0.02 * head;
-    f.y_mouth = Y(h_eye) - 0.064 * head;
-    f.y_neck_lo = Y(h_eye) - 0.128 * head;
-    f.y_neck_hi = Y(h_eye) - 0.100 * head;
-    f.ear_z = -0.008 * head;
-    f.d = P.d;
-    for (int e = 0; e < kExprParams; ++e) f.expr[e] = p[kShapeParams + e];
-  }
-
-  // Eyes: spheres behind the eyelids, rotating about their centres.
-  {
-    // Undisplaced head surface in front of the eye: ellipse of the eye-level key.
-    const double rx = 0.076 * head, rz = 0.097 * head, cz = 0.013 * head;
-    const double zs = cz + rz * std::sqrt(std::max(0.0, 1 - (eye_x / rx) * (eye_x / rx)));
-    const double re = 0.012 * head;
-    TubeDef t;
-    t.name = "eye_l";
-    t.origin = V3(eye_x, Y(h_eye), zs - 0.001 * head - 2 * re);
-    t.dir = V3(0, 0, 1);
-    t.e1 = V3(0, -1, 0);
-    t.length = 2 * re;
-    t.cap0 = t.cap1 = re;
-    t.keys = {{0, re, re, 0, 0}, {2 * re, re, re, 0, 0}};
-    t.regress_all = jEyeL;
-    t.owner = jEyeL;
-    t.uv_density = 1.5;
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
-  }
-
-  // Legs: from inside the pelvis down to the ankle (the bottom is hidden in the foot).
-  const double hip_x = 0.085 * hipw;
-  {
-    TubeDef t;
-    t.name = "leg_l";
-    const double h0 = h_hip + 0.075 * s, h1 = h_ankle - 0.04 * s;
-    t.origin = V3(hip_x, Y(h0), 0);
-    t.dir = V3(0, -1, 0);
-    t.e1 = V3(-1, 0, 0);  // seam on the inner side; e2 = -Z
-    t.length = h0 - h1;
-    t.cap0 = 0.06 * s;
-    t.cap1 = 0.03 * s;
-    auto key = [&](double h, double rx, double rz, double cz) { t.keys.push_back({h0 - h, rx, rz, 0, -cz}); };
-    key(h0, 0.075 * g, 0.075 * g, 0);
-    key(h_hip, 0.088 * g, 0.088 * g, -0.005);
-    key(h_hip - 0.15 * s * leg, 0.077 * g, 0.078 * g, 0.0);
-    key(h_knee + 0.07 * s, 0.057 * g, 0.058 * g, 0.003);
-    key(h_knee, 0.050 * sg, 0.052 * sg, 0.005);
-    key(h_knee - 0.11 * s, 0.054 * g, 0.060 * g, -0.012);
-    key(h_knee - 0.26 * s, 0.039 * sg, 0.042 * sg, -0.005);
-    key(h_ankle, 0.032, 0.036, 0);
-    key(h1, 0.030, 0.032, 0);
-    sort_keys(t);
-    t.joints = {{h0 - h_hip, jHipL}, {h0 - h_knee, jKneeL}, {h0 - h_ankle, jAnkleL}};
-    t.owner = jPelvis;
-    t.bounds = {{h0 - h_hip, jHipL, 0.05 * s}, {h0 - h_knee, jKneeL, 0.04 * s}, {h0 - h_ankle, jAnkleL, 0.025 * s}};
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
-  }
-
-  // Feet: heel to toes along +Z (slightly turned out), sole on the floor.
-  {
-    TubeDef t;
-    t.name = "foot_l";
-    t.origin = V3(hip_x + 0.005, Y(0), -0.06 * s);
-    t.dir = unit(V3(0.08, 0, 1));
-    t.e1 = V3(0, -1, 0);  // seam under the sole; e2 = +X
-    t.length = 0.255 * s;
-    t.cap0 = 0.03 * s;
-    t.cap1 = 0.025 * s;
-    t.exponent = 2.6;
-    auto key = [&](double a, double rv, double rw, double cw) { t.keys.push_back({a * s, rv * s, rw * s, -rv * s, cw * s}); };
-    key(0.0, 0.035, 0.030, 0);
-    key(0.04, 0.045, 0.034, 0);
-    key(0.075, 0.052, 0.037, 0);
-    key(0.13, 0.036, 0.044, 0.003);
-    key(0.175, 0.021, 0.047, 0.004);
-    key(0.22, 0.016, 0.042, 0.002);
-    key(0.255, 0.014, 0.035, 0);
-    t.joints = {{0.175 * s, jFootL}};
-    t.owner = jAnkleL;
-    t.bounds = {{0.175 * s, jFootL, 0.02 * s}};
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
-  }
-
-  // Arms: T-pose along +X from inside the chest (collar) past the wrist.
-  const double arm_z = -0.015;
-  const double collar_x = 0.075 * shw, shoulder_x = 0.185 * shw;
-  const double elbow_x = shoulder_x + 0.265 * s * arm, wrist_x = elbow_x + 0.25 * s * arm;
-  const double hand = s * arm;
-  const double y_arm = Y(h_sh);
-  {
-    TubeDef t;
-    t.name = "arm_l";
-    const double x0 = 0.045 * shw, x1 = wrist_x + 0.02 * hand;
-    t.origin = V3(x0, y_arm, arm_z);
-    t.dir = V3(1, 0, 0);
-    t.e1 = V3(0, -1, 0);  // seam underneath; e2 = -Z
-    t.length = x1 - x0;
-    t.cap0 = 0.04;
-    t.cap1 = 0.018 * hand;
-    auto key = [&](double x, double rv, double rd) { t.keys.push_back({x - x0, rv, rd, 0, 0}); };
-    key(x0, 0.045 * sg, 0.045 * sg);
-    key(collar_x, 0.050 * g, 0.050 * g);
-    key(shoulder_x - 0.03, 0.060 * g, 0.057 * g);
-    key(shoulder_x + 0.06, 0.052 * g, 0.050 * g);
-    key(elbow_x - 0.06, 0.041 * g, 0.043 * g);
-    key(elbow_x, 0.036 * sg, 0.039 * sg);
-    key(elbow_x + 0.07, 0.041 * g, 0.046 * g);
-    key(wrist_x - 0.06, 0.028 * sg, 0.034 * sg);
-    key(wrist_x, 0.021 * hand, 0.030 * hand);
-    key(x1, 0.020 * hand, 0.029 * hand);
-    sort_keys(t);
-    t.joints = {{collar_x - x0, jCollarL}, {shoulder_x - x0, jShoulderL}, {elbow_x - x0, jElbowL}, {wrist_x - x0, jWristL}};
-    t.owner = jCollarL;
-    t.bounds = {{shoulder_x - x0, jShoulderL, 0.045}, {elbow_x - x0, jElbowL, 0.035}, {wrist_x - x0, jWristL, 0.02 * hand}};
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
-  }
-
-  // Hands: palm (wrist to knuckles), four fingers and a thumb; palm down, thumb forward.
-  const double palm_y = y_arm - 0.002 * hand;
-  const double knuckle_x[4] = {0.088, 0.090, 0.079, 0.086};  // index, middle, pinky, ring
-  const double knuckle_z[4] = {0.028, 0.009, -0.028, -0.010};
-  const double spread[4] = {0.10, 0.02, -0.17, -0.07};  // radians about Y, toward +Z
-  const double seg_len[5][3] = {{0.042, 0.025, 0.021}, {0.047, 0.029, 0.023}, {0.034, 0.020, 0.019},
-                                {0.044, 0.027, 0.022}, {0.040, 0.032, 0.027}};
-  const double finger_r[5] = {0.0095, 0.0098, 0.0082, 0.0092, 0.0110};
-  {
-    TubeDef t;
-    t.name = "palm_l";
-    const double x0 = wrist_x - 0.012 * hand;
-    t.origin = V3(x0, palm_y, arm_z);
-    t.dir = V3(1, 0, 0);
-    t.e1 = V3(0, 0, -1);  // seam along the little-finger edge; e2 = +Y
-    t.length = 0.10 * hand;
-    t.cap0 = 0.012 * hand;
-    t.cap1 = 0.010 * hand;
-    t.exponent = 2.6;
-    auto key = [&](double a, double rw, double rt) { t.keys.push_back({a * hand, rw * hand, rt * hand, 0, 0}); };
-    key(0.0, 0.026, 0.017);
-    key(0.02, 0.034, 0.018);
-    key(0.06, 0.041, 0.016);
-    key(0.09, 0.044, 0.0135);
-    key(0.10, 0.043, 0.012);
-    t.owner = jWristL;
-    t.extra = Extra::palm;
-    t.uv_density = 1.2;
-    for (int f = 0; f < 4; ++f) {
-      t.finger_z[f] = arm_z + knuckle_z[f] * hand;
-      t.finger_joint[f] = hand_joint(f, 0);
-    }
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
-  }
+TubeDef finger_tube(const Measures& M, const Details& d, int f) {
   static const char* kFingerNames[5] = {"index_l", "middle_l", "pinky_l", "ring_l", "thumb_l"};
-  for (int f = 0; f < 5; ++f) {
-    TubeDef t;
-    t.name = kFingerNames[f];
-    const double r = finger_r[f] * hand;
-    const double l1 = seg_len[f][0] * hand * P.d.finger_len[f], l2 = seg_len[f][1] * hand * P.d.finger_len[f];
-    const double l3 = seg_len[f][2] * hand * P.d.finger_len[f];
-    V3 base;
-    double back;  // part of the tube inside the palm
-    if (f == fThumb) {
-      base = V3(wrist_x + 0.018 * hand, palm_y - 0.008 * hand, arm_z + 0.020 * hand);
-      t.dir = unit(V3(0.75, -0.25, 0.85));
-      back = 0.012 * hand;
-    } else {
-      base = V3(wrist_x + knuckle_x[f] * hand, palm_y + 0.001 * hand, arm_z + knuckle_z[f] * hand);
-      t.dir = V3(std::cos(spread[f]), 0, std::sin(spread[f]));
-      back = 0.016 * hand;
-    }
-    t.origin = base - back * t.dir;
-    const V3 down(0, -1, 0);
-    t.e1 = unit(down - dot(down, t.dir) * t.dir);  // seam on the palm side
-    t.length = back + l1 + l2 + l3;
-    t.cap0 = 0.006 * hand;
-    t.cap1 = 0.75 * r;
-    const double thick = f == fThumb ? 1.15 : 1.0;
-    t.keys = {{0, 0.9 * r, 0.95 * r, 0, 0},
-              {back, thick * r, thick * 1.05 * r, 0, 0},
-              {back + l1, 0.88 * r, 0.92 * r, 0, 0},
-              {back + l1 + 0.5 * l2, 0.85 * r, 0.88 * r, 0, 0},
-              {back + l1 + l2, 0.80 * r, 0.84 * r, 0, 0},
-              {t.length, 0.72 * r, 0.75 * r, 0, 0}};
-    t.joints = {{back, hand_joint(f, 0)}, {back + l1, hand_joint(f, 1)}, {back + l1 + l2, hand_joint(f, 2)}};
-    t.owner = jWristL;
-    t.bounds = {{back, hand_joint(f, 0), 0.007 * hand},
-                {back + l1, hand_joint(f, 1), 0.005 * hand},
-                {back + l1 + l2, hand_joint(f, 2), 0.004 * hand}};
-    t.uv_density = 1.2;
-    body.tubes.push_back(t);
-    body.tubes.push_back(mirror(t));
+  const double hand = M.hand, wrist_x = M.wrist_x, palm_y = M.palm_y, arm_z = M.arm_z;
+  TubeDef t;
+  t.name = kFingerNames[f];
+  const double r = kFingerR[f] * hand;
+  const double l1 = kSegLen[f][0] * hand * d.finger_len[f], l2 = kSegLen[f][1] * hand * d.finger_len[f];
+  const double l3 = kSegLen[f][2] * hand * d.finger_len[f];
+  V3 base;
+  double back;  // part of the tube inside the palm
+  if (f == fThumb) {
+    base = V3(wrist_x + 0.018 * hand, palm_y - 0.008 * hand, arm_z + 0.020 * hand);
+    t.dir = unit(V3(0.75, -0.25, 0.85));
+    back = 0.012 * hand;
+  } else {
+    base = V3(wrist_x + kKnuckleX[f] * hand, palm_y + 0.001 * hand, arm_z + kKnuckleZ[f] * hand);
+    t.dir = V3(std::cos(kFingerSpread[f]), 0, std::sin(kFingerSpread[f]));
+    back = 0.016 * hand;
   }
+  t.origin = base - back * t.dir;
+  const V3 down(0, -1, 0);
+  t.e1 = unit(down - dot(down, t.dir) * t.dir);  // seam on the palm side
+  t.length = back + l1 + l2 + l3;
+  t.cap0 = 0.006 * hand;
+  t.cap1 = 0.75 * r;
+  const double thick = f == fThumb ? 1.15 : 1.0;
+  t.keys = {{0, 0.9 * r, 0.95 * r, 0, 0},
+            {back, thick * r, thick * 1.05 * r, 0, 0},
+            {back + l1, 0.88 * r, 0.92 * r, 0, 0},
+            {back + l1 + 0.5 * l2, 0.85 * r, 0.88 * r, 0, 0},
+            {back + l1 + l2, 0.80 * r, 0.84 * r, 0, 0},
+            {t.length, 0.72 * r, 0.75 * r, 0, 0}};
+  t.joints = {{back, hand_joint(f, 0)}, {back + l1, hand_joint(f, 1)}, {back + l1 + l2, hand_joint(f, 2)}};
+  t.owner = jWristL;
+  t.bounds = {{back, hand_joint(f, 0), 0.007 * hand},
+              {back + l1, hand_joint(f, 1), 0.005 * hand},
+              {back + l1 + l2, hand_joint(f, 2), 0.004 * hand}};
+  t.uv_density = 1.2;
+  return t;
+}
+
+void add_pair(Body& body, const TubeDef& left) {
+  body.tubes.push_back(left);
+  body.tubes.push_back(mirror(left));
+}
+
+// Tube order is the vertex order of the model: keep it.
+Body build_body(const Params& P) {
+  const Measures M = measures(P);
+  Body body;
+  body.y_shoulder = M.Y(M.h_sh);
+  body.y_hip = M.Y(M.h_hip);
+  body.tubes.push_back(torso_tube(M));
+  body.tubes.push_back(head_tube(M));
+  body.face = head_face(M, P);
+  add_pair(body, eye_tube(M));
+  add_pair(body, leg_tube(M));
+  add_pair(body, foot_tube(M));
+  add_pair(body, arm_tube(M));
+  add_pair(body, palm_tube(M));
+  for (int f = 0; f < 5; ++f) add_pair(body, finger_tube(M, P.d, f));
   return body;
 }
 
@@ -967,50 +1015,28 @@ std::vector<Vec2<double>> landmark_targets(double ex) {
   return p;
 }
 
-}  // namespace
 
-BodyResolution parse_body_resolution(const std::string& s) {
-  if (s == "low") return BodyResolution::low;
-  if (s == "full") return BodyResolution::full;
-  fail("--resolution", "unknown value '" + s + "' (expected low or full)");
-}
-const char* body_resolution_name(BodyResolution r) { return r == BodyResolution::low ? "low" : "full"; }
-
-BodyModel make_procedural_body(const ProceduralBodyOptions& opt, ProceduralBodyInfo* info) {
-  // Base proportions for this seed (bit-exact across platforms: raw mt19937_64 output).
+// Base proportions for a seed (bit-exact across platforms: raw mt19937_64 output).
+Params base_params(uint64_t seed) {
   Params base;
   base.p.fill(0);
   for (int i = 0; i < kShapeParams; ++i) base.p[i] = i == pBelly ? 0.0 : 1.0;
-  {
-    std::mt19937_64 rng(opt.seed * 0x9E3779B97F4A7C15ull + 0x5EEDB0D1ull);
-    auto sym = [&] { return 2.0 * double(rng() >> 11) * 0x1.0p-53 - 1.0; };
-    const double var[kShapeParams] = {0.02, 0.04, 0.015, 0.03, 0.015, 0.02, 0.005, 0.03, 0.03, 0.05};
-    for (int i = 0; i < kShapeParams; ++i) base.p[i] += var[i] * sym();
-    for (double& f : base.d.finger_len) f = 1 + 0.04 * sym();
-    base.d.eye_spacing = 1 + 0.04 * sym();
-    base.d.nose = 1 + 0.12 * sym();
-    base.d.lips = 1 + 0.15 * sym();
-    base.d.ears = 1 + 0.15 * sym();
-    base.d.brows = 1 + 0.15 * sym();
-  }
-  const Body body = build_body(base);
-  const std::vector<PartLayout> layout = make_layout(body, opt.resolution);
-  const std::vector<V3> v = eval_vertices(body, layout);
-  const int V = int(v.size());
-  const int F = layout.back().f0 + layout.back().num_faces();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + 0x5EEDB0D1ull);
+  auto sym = [&] { return 2.0 * double(rng() >> 11) * 0x1.0p-53 - 1.0; };
+  const double var[kShapeParams] = {0.02, 0.04, 0.015, 0.03, 0.015, 0.02, 0.005, 0.03, 0.03, 0.05};
+  for (int i = 0; i < kShapeParams; ++i) base.p[i] += var[i] * sym();
+  for (double& f : base.d.finger_len) f = 1 + 0.04 * sym();
+  base.d.eye_spacing = 1 + 0.04 * sym();
+  base.d.nose = 1 + 0.12 * sym();
+  base.d.lips = 1 + 0.15 * sym();
+  base.d.ears = 1 + 0.15 * sym();
+  base.d.brows = 1 + 0.15 * sym();
+  return base;
+}
 
-  BodyModel m;
-  m.source = std::string("procedural body (") + body_resolution_name(opt.resolution) + ", seed " +
-             std::to_string(opt.seed) + ")";
-  m.num_verts = V;
-  m.num_faces = F;
-  m.num_shape = 300;
-  m.num_expr = 100;
-  m.v_template.resize(3 * size_t(V));
-  for (int i = 0; i < V; ++i)
-    for (int c = 0; c < 3; ++c) m.v_template[3 * i + c] = float(v[i][c]);
-
-  // Faces and UV faces.
+// Faces and UV faces of every tube, then the packed UV atlas.
+void add_faces_and_uvs(BodyModel& m, const Body& body, const std::vector<PartLayout>& layout, const std::vector<V3>& v) {
+  const int F = m.num_faces;
   std::vector<Chart> charts;
   m.faces.resize(3 * size_t(F));
   m.ft.resize(3 * size_t(F));
@@ -1041,8 +1067,13 @@ BodyModel make_procedural_body(const ProceduralBodyOptions& opt, ProceduralBodyI
       m.vt.push_back(float(p.x));
       m.vt.push_back(float(p.y));
     }
+}
 
-  // Skeleton, regressor, weights.
+// Skeleton, joint regressor and skinning weights; returns the weights per vertex (the pose
+// correctives need them unrounded).
+std::vector<Weights> add_skeleton(BodyModel& m, const Body& body, const std::vector<PartLayout>& layout,
+                                  const std::vector<V3>& v) {
+  const int V = m.num_verts;
   m.parents.assign(kParents, kParents + kNumJoints);
   m.j_regressor.assign(size_t(kNumJoints) * V, 0.f);
   std::vector<int> regressed(kNumJoints, 0);
@@ -1070,8 +1101,12 @@ BodyModel make_procedural_body(const ProceduralBodyOptions& opt, ProceduralBodyI
   m.weights.assign(size_t(V) * kNumJoints, 0.f);
   for (int i = 0; i < V; ++i)
     for (auto& e : w[i]) m.weights[size_t(i) * kNumJoints + e.first] = float(e.second);
+  return w;
+}
 
-  // Shape and expression directions: central differences of the generator.
+// Shape and expression directions: central differences of the generator.
+void add_shape_directions(BodyModel& m, const Params& base, const std::vector<PartLayout>& layout) {
+  const int V = m.num_verts;
   const int D = m.num_shape + m.num_expr;
   m.shapedirs.assign(size_t(V) * 3 * D, 0.f);
   for (int q = 0; q < kParams; ++q) {
@@ -1087,66 +1122,101 @@ BodyModel make_procedural_body(const ProceduralBodyOptions& opt, ProceduralBodyI
       for (int c = 0; c < 3; ++c)
         m.shapedirs[(size_t(i) * 3 + c) * D + col] = float((vh[i][c] - vl[i][c]) / (2 * step) * unit_change);
   }
+}
 
-  // Pose correctives: where a vertex blends between joints, bending joint j pushes it
-  // outward by k w (1 - w) (1 - cos angle) * 2 (volume kept at bends). Non-zero only for
-  // the vertex's own joints, so sparse LBS stays sparse.
+// Pose correctives: where a vertex blends between joints, bending joint j pushes it
+// outward by k w (1 - w) (1 - cos angle) * 2 (volume kept at bends). Non-zero only for
+// the vertex's own joints, so sparse LBS stays sparse.
+void add_pose_correctives(BodyModel& m, const std::vector<V3>& v, const std::vector<Weights>& w) {
+  const int V = m.num_verts, F = m.num_faces;
   m.posedirs.assign(size_t(V) * 3 * kNumPoseFeatures, 0.f);
-  {
-    std::vector<V3> normal(V, V3(0, 0, 0));
-    for (int f = 0; f < F; ++f) {
-      const int a = m.faces[3 * f], b = m.faces[3 * f + 1], c = m.faces[3 * f + 2];
-      const V3 n = cross(v[b] - v[a], v[c] - v[a]);
-      normal[a] += n, normal[b] += n, normal[c] += n;
-    }
-    constexpr double kBulge = 0.012;
-    for (int i = 0; i < V; ++i) {
-      const V3 n = unit(normal[i]);
-      for (auto& e : w[i]) {
-        if (e.first == 0 || e.second >= 1) continue;
-        const double coef = -kBulge * e.second * (1 - e.second);
-        for (int c = 0; c < 3; ++c)
-          for (int d = 0; d < 3; ++d)
-            m.posedirs[(size_t(i) * 3 + c) * kNumPoseFeatures + 9 * (e.first - 1) + 4 * d] = float(coef * n[c]);
-      }
+  std::vector<V3> normal(V, V3(0, 0, 0));
+  for (int f = 0; f < F; ++f) {
+    const int a = m.faces[3 * f], b = m.faces[3 * f + 1], c = m.faces[3 * f + 2];
+    const V3 n = cross(v[b] - v[a], v[c] - v[a]);
+    normal[a] += n, normal[b] += n, normal[c] += n;
+  }
+  constexpr double kBulge = 0.012;
+  for (int i = 0; i < V; ++i) {
+    const V3 n = unit(normal[i]);
+    for (auto& e : w[i]) {
+      if (e.first == 0 || e.second >= 1) continue;
+      const double coef = -kBulge * e.second * (1 - e.second);
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d)
+          m.posedirs[(size_t(i) * 3 + c) * kNumPoseFeatures + 9 * (e.first - 1) + 4 * d] = float(coef * n[c]);
     }
   }
+}
 
+// Landmarks on the head part.
+void add_landmarks(BodyModel& m, const Body& body, const std::vector<PartLayout>& layout, const std::vector<V3>& v) {
+  int head = -1;
+  for (size_t p = 0; p < body.tubes.size(); ++p)
+    if (body.tubes[p].name == "head") head = int(p);
+  const PartLayout& L = layout[head];
+  const Face& fc = body.face;
+  for (const auto& t : landmark_targets(fc.eye_x / fc.hs)) {
+    const double px = t.x * fc.hs, py = fc.y_eye + t.y * fc.hs;
+    int best = -1;
+    double best_z = -1e9, bary[3] = {0, 0, 0};
+    for (int f = L.f0; f < L.f0 + L.num_faces(); ++f) {
+      const V3 a = v[m.faces[3 * f]], b = v[m.faces[3 * f + 1]], c = v[m.faces[3 * f + 2]];
+      if (cross(b - a, c - a).z <= 0) continue;  // back-facing
+      const double det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+      if (std::abs(det) < 1e-14) continue;
+      const double l1 = ((px - a.x) * (c.y - a.y) - (c.x - a.x) * (py - a.y)) / det;
+      const double l2 = ((b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y)) / det;
+      const double l0 = 1 - l1 - l2;
+      if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9) continue;
+      const double z = l0 * a.z + l1 * b.z + l2 * c.z;
+      if (z > best_z) {
+        best_z = z;
+        best = f;
+        bary[0] = l0, bary[1] = l1, bary[2] = l2;
+      }
+    }
+    if (best < 0) throw std::logic_error("procedural body: landmark missed the face");
+    m.lmk_faces_idx.push_back(best);
+    for (double b : bary) m.lmk_bary_coords.push_back(float(std::max(0.0, b)));
+  }
+}
+
+}  // namespace
+
+BodyResolution parse_body_resolution(const std::string& s) {
+  if (s == "low") return BodyResolution::low;
+  if (s == "full") return BodyResolution::full;
+  fail("--resolution", "unknown value '" + s + "' (expected low or full)");
+}
+const char* body_resolution_name(BodyResolution r) { return r == BodyResolution::low ? "low" : "full"; }
+
+BodyModel make_procedural_body(const ProceduralBodyOptions& opt, ProceduralBodyInfo* info) {
+  const Params base = base_params(opt.seed);
+  const Body body = build_body(base);
+  const std::vector<PartLayout> layout = make_layout(body, opt.resolution);
+  const std::vector<V3> v = eval_vertices(body, layout);
+  const int V = int(v.size());
+  const int F = layout.back().f0 + layout.back().num_faces();
+
+  BodyModel m;
+  m.source = std::string("procedural body (") + body_resolution_name(opt.resolution) + ", seed " +
+             std::to_string(opt.seed) + ")";
+  m.num_verts = V;
+  m.num_faces = F;
+  m.num_shape = 300;
+  m.num_expr = 100;
+  m.v_template.resize(3 * size_t(V));
+  for (int i = 0; i < V; ++i)
+    for (int c = 0; c < 3; ++c) m.v_template[3 * i + c] = float(v[i][c]);
+
+  add_faces_and_uvs(m, body, layout, v);
+  const std::vector<Weights> w = add_skeleton(m, body, layout, v);
+  add_shape_directions(m, base, layout);
+  add_pose_correctives(m, v, w);
   hand_pca(body, true, m.hands_components_l, m.hands_mean_l);
   hand_pca(body, false, m.hands_components_r, m.hands_mean_r);
-
-  // Landmarks on the head part.
-  {
-    int head = -1;
-    for (size_t p = 0; p < body.tubes.size(); ++p)
-      if (body.tubes[p].name == "head") head = int(p);
-    const PartLayout& L = layout[head];
-    const Face& fc = body.face;
-    for (const auto& t : landmark_targets(fc.eye_x / fc.hs)) {
-      const double px = t.x * fc.hs, py = fc.y_eye + t.y * fc.hs;
-      int best = -1;
-      double best_z = -1e9, bary[3] = {0, 0, 0};
-      for (int f = L.f0; f < L.f0 + L.num_faces(); ++f) {
-        const V3 a = v[m.faces[3 * f]], b = v[m.faces[3 * f + 1]], c = v[m.faces[3 * f + 2]];
-        if (cross(b - a, c - a).z <= 0) continue;  // back-facing
-        const double det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
-        if (std::abs(det) < 1e-14) continue;
-        const double l1 = ((px - a.x) * (c.y - a.y) - (c.x - a.x) * (py - a.y)) / det;
-        const double l2 = ((b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y)) / det;
-        const double l0 = 1 - l1 - l2;
-        if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9) continue;
-        const double z = l0 * a.z + l1 * b.z + l2 * c.z;
-        if (z > best_z) {
-          best_z = z;
-          best = f;
-          bary[0] = l0, bary[1] = l1, bary[2] = l2;
-        }
-      }
-      if (best < 0) throw std::logic_error("procedural body: landmark missed the face");
-      m.lmk_faces_idx.push_back(best);
-      for (double b : bary) m.lmk_bary_coords.push_back(float(std::max(0.0, b)));
-    }
-  }
+  add_landmarks(m, body, layout, v);
 
   if (info) {
     info->parts.clear();
