@@ -597,6 +597,28 @@ export class Avatar {
     }
   }
 
+  // The posed body (this.posed) per glTF vertex (Vg x 3: its body vertex's position) into
+  // out, e.g. an engine's position buffer.
+  posedGltfVertices(out) {
+    const P = this.posed, bv = this.bodyVertex;
+    for (let g = 0; g < this.Vg; g++) {
+      const s = 3 * bv[g];
+      out[3 * g] = P[s]; out[3 * g + 1] = P[s + 1]; out[3 * g + 2] = P[s + 2];
+    }
+    return out;
+  }
+
+  // The posed Gaussian centres (this.means) mapped by a column-major 4 x 4 matrix e (e.g. the
+  // avatar frame's world matrix) into out (N x 3).
+  transformedMeans(e, out = new Float64Array(3 * this.N)) {
+    const m = this.means;
+    for (let i = 0; i < this.N; i++) {
+      const x = m[3 * i], y = m[3 * i + 1], z = m[3 * i + 2];
+      for (let r = 0; r < 3; r++) out[3 * i + r] = e[r] * x + e[4 + r] * y + e[8 + r] * z + e[12 + r];
+    }
+    return out;
+  }
+
   // One frame: posed vertices + world Gaussians.
   repose(pose, transl) {
     const world = this.reposeBody(pose, transl);

@@ -1,8 +1,12 @@
-// Engine-free. Per-Gaussian part of the 3DGS EWA splatting of libhaha/render/gaussian_kernels.h
-// (project_gaussian, plain / not antialiased, as the avatar render uses it), in float64,
-// and the depth sort of gaussian_raster.cpp (by camera z of the centre, ties by index).
-// The per-pixel part (alpha = min(0.99, o exp(power)), skipped below 1/255, depth test
-// against the mesh, front-to-back compositing) runs in the fragment shader (viewer.js).
+// Engine-free. The splat module of the three.js plugin, the Babylon.js extension and
+// samples/web: the per-Gaussian part of the 3DGS EWA splatting of
+// libhaha/render/gaussian_kernels.h (project_gaussian, plain / not antialiased, as the avatar
+// render uses it), in float64, and the depth sort of gaussian_raster.cpp (by camera z of the
+// centre, ties by index) (SplatProjector); the GLSL of the per-pixel part (alpha = min(0.99,
+// o exp(power)), skipped below 1/255) and of the quads (SPLAT_GLSL_VERTEX / _FRAGMENT); the
+// engines' splat layer in an engine's GLSL dialect (splatLayerShaders) with its splat texture
+// (SplatTexture) and camera (openCvFromGl). The depth test against the mesh and the
+// compositing are the engine's (blending) or the renderer's (samples/web/lib/renderer.js).
 //
 // Camera: OpenCV pinhole, { width, height, fx, fy, cx, cy, R (row-major 3 x 3,
 // world -> camera), t (3), near, far }, pixel centres at +0.5.
@@ -155,4 +159,125 @@ export class SplatProjector {
     }
     return idx;  // four passes: back in the first halves
   }
+}
+
+// --- GLSL (ES 3.00 functions, no in / out: any engine's dialect includes them) ---
+
+// The vertex of corner `corner` (gl_VertexID % CORNERS: bit 0 = right, bit 1 = bottom) of a
+// splat's pixel box (x0, y0, x1 + 1, y1 + 1), and a pixel (rows top-down) as clip x, y of a
+// viewport of `size` pixels.
+export const SPLAT_GLSL_VERTEX = /* glsl */ `
+vec2 hahaSplatCorner(vec4 box, int corner) {
+  return mix(box.xy, box.zw, vec2(float(corner & 1), float(corner >> 1)));
+}
+vec2 hahaPixelToClip(vec2 pix, vec2 size) {
+  return vec2(2.0 * pix.x / size.x - 1.0, 1.0 - 2.0 * pix.y / size.y);
+}`;
+
+// libhaha/render/gaussian_kernels.h pixel_alpha: the alpha of a splat (conic ca, cb, cc,
+// opacity, power_min) at offset d (pixels) from its centre; discards the fragment below the
+// cut-offs.
+export const SPLAT_GLSL_FRAGMENT = /* glsl */ `
+float hahaSplatAlpha(vec2 d, vec3 conic, float opacity, float powerMin) {
+  float power = -0.5 * (conic.x * d.x * d.x + conic.z * d.y * d.y) - conic.y * d.x * d.y;
+  if (power < powerMin) discard;
+  float alpha = min(0.99, opacity * exp(power));
+  if (alpha < 1.0 / 255.0) discard;
+  return alpha;
+}`;
+
+// Index buffer of n quads, two triangles each over its CORNERS vertices (at least one quad:
+// n = 0 gives one degenerate quad, so that an engine has a buffer to bind).
+export function quadIndices(n) {
+  const index = new Uint32Array(6 * Math.max(1, n));
+  for (let i = 0; i < n; i++) index.set([4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 2, 4 * i + 1, 4 * i + 3], 6 * i);
+  return index;
+}
+
+// --- the engines' splat layer: a float texture of splats, quads drawn back to front ---
+
+export const SPLATS_PER_ROW = 512;  // splats per texture row: STRIDE floats = 4 RGBA32F texels each
+
+// The avatar's Gaussians projected for one camera into this.data (a SPLATS_PER_ROW * 4 wide,
+// RGBA float texture), back to front for premultiplied "over" blending (same sum as the
+// rasterizer's front-to-back compositing). The engine uploads this.data as a texture named
+// `splats` and draws 6 * n indices of this.indices (quadIndices) with splatLayerShaders.
+export class SplatTexture {
+  constructor(N) {
+    this.projector = new SplatProjector(N);
+    this.width = 4 * SPLATS_PER_ROW;
+    this.height = Math.max(1, Math.ceil(N / SPLATS_PER_ROW));
+    this.data = new Float32Array(4 * this.width * this.height);
+    this.indices = quadIndices(N);
+  }
+
+  // Projects the posed Gaussians of an Avatar (avatar.js: means, quats, scales, gOpacity,
+  // gColor) for cam into this.data; returns how many are drawn.
+  project(cam, a) {
+    const n = this.projector.project(cam, a.N, a.means, a.quats, a.scales, a.gOpacity, a.gColor, { corners: 0 });
+    this.projector.write(this.data, n, true);
+    return n;
+  }
+}
+
+// The layer's shaders in an engine's GLSL dialect. The vertex shader reads splat
+// gl_VertexID / 4 from the `splats` texture (SplatTexture) and places its corner
+// gl_VertexID % 4 in the viewport hahaViewport (x, y, width, height, pixels) at the centre's
+// depth; the fragment shader computes the alpha there and writes the premultiplied colour.
+// dialect: { vertexOut, fragmentIn (the varying qualifiers), vertexHead (declarations),
+// clipW (the w of gl_Position: 1.0), fragmentHead, writeColor (GLSL statements from vColor
+// and alpha) }.
+export function splatLayerShaders(dialect) {
+  const { vertexOut, fragmentIn, vertexHead = '', clipW = '1.0', fragmentHead = '', writeColor } = dialect;
+  const varyings = (q) => `flat ${q} vec2 vMean;
+flat ${q} vec3 vConic;
+flat ${q} vec2 vParams;
+flat ${q} vec3 vColor;`;
+  const vertex = /* glsl */ `
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+${vertexHead}
+uniform sampler2D splats;  // 4 texels per splat: rect | mean, conic.ab | conic.c, opacity, power_min, z | colour, ndc z
+uniform vec4 hahaViewport; // x, y, width, height (pixels)
+${varyings(vertexOut)}
+${SPLAT_GLSL_VERTEX}
+void main() {
+  int s = gl_VertexID / 4, corner = gl_VertexID % 4;
+  ivec2 b = ivec2((s % ${SPLATS_PER_ROW}) * 4, s / ${SPLATS_PER_ROW});
+  vec4 t0 = texelFetch(splats, b, 0), t1 = texelFetch(splats, b + ivec2(1, 0), 0);
+  vec4 t2 = texelFetch(splats, b + ivec2(2, 0), 0), t3 = texelFetch(splats, b + ivec2(3, 0), 0);
+  vec2 pix = hahaSplatCorner(t0, corner);
+  gl_Position = vec4(hahaPixelToClip(pix, hahaViewport.zw), t3.w, ${clipW});
+  vMean = t1.xy;
+  vConic = vec3(t1.zw, t2.x);
+  vParams = t2.yz;
+  vColor = t3.rgb;
+}`;
+  const fragment = /* glsl */ `
+precision highp float;
+uniform vec4 hahaViewport;
+${varyings(fragmentIn)}
+${fragmentHead}
+${SPLAT_GLSL_FRAGMENT}
+void main() {
+  vec2 d = vec2(gl_FragCoord.x - hahaViewport.x, hahaViewport.w - (gl_FragCoord.y - hahaViewport.y)) - vMean;
+  float alpha = hahaSplatAlpha(d, vConic, vParams.x, vParams.y);
+  ${writeColor}
+}`;
+  return { vertex, fragment };
+}
+
+// The OpenCV camera of project() for a GL perspective projection P and a model-view matrix E
+// (column-major 4 x 4, E: the layer's frame -> view space) over a W x H viewport. s = 1: the
+// view space is right-handed (the camera looks along -z, P[11] = -1); s = -1: left-handed
+// (along +z, P[11] = 1). The depth of the centres is written as P writes it (depthA, depthB).
+export function openCvFromGl(P, E, W, H, near, s = 1) {
+  return {
+    width: W, height: H,
+    fx: P[0] * W / 2, fy: P[5] * H / 2, cx: (1 - s * P[8]) * W / 2, cy: (1 + s * P[9]) * H / 2,
+    R: [E[0], E[4], E[8], -E[1], -E[5], -E[9], -s * E[2], -s * E[6], -s * E[10]],
+    t: [E[12], -E[13], -s * E[14]],
+    near, far: Infinity, depthA: s * P[10], depthB: P[14],
+  };
 }

@@ -181,12 +181,7 @@ class Viewer {
     this.setBones(pose, transl);
     this.gltfScene.updateMatrixWorld(true);  // the plugin's layer reposes from the bones
     this.layer.update();
-    const P = this.positions, bv = a.bodyVertex;
-    for (let gi = 0; gi < a.Vg; gi++) {
-      const s = 3 * bv[gi];
-      P[3 * gi] = a.posed[s]; P[3 * gi + 1] = a.posed[s + 1]; P[3 * gi + 2] = a.posed[s + 2];
-    }
-    this.exactMesh.update(P);
+    this.exactMesh.update(a.posedGltfVertices(this.positions));
     this.skinned.visible = this.skinMode === 'gltf';
     this.exactMesh.visible = this.skinMode === 'exact';
     const t1 = performance.now();

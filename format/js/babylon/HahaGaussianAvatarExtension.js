@@ -23,10 +23,9 @@
 import { Avatar, NUM_JOINTS } from '../avatar.js';
 import { Glb } from '../glb.js';
 import { dracoDecode } from '../draco.js';
-import { SplatProjector, STRIDE } from '../splat.js';
+import { SplatTexture, splatLayerShaders, openCvFromGl } from '../splat.js';
 
 export const EXTENSION_NAME = 'HAHA_gaussian_avatar';
-const TEX_SPLATS_PER_ROW = 512;  // 4 RGBA32F texels per splat
 
 export function registerHahaGaussianAvatar(BABYLON, options = {}) {
   const factory = (loader) => new HahaGaussianAvatarExtension(BABYLON, loader, options);
@@ -75,47 +74,15 @@ export class HahaGaussianAvatarExtension {
   }
 }
 
-// GLSL in Babylon's dialect (its WebGL2 engine turns attribute / varying / gl_FragColor into
-// GLSL ES 3.00).
-const SPLAT_VS = `
-precision highp float;
-precision highp int;
-attribute vec3 position;  // unused (gl_VertexID picks the splat and corner)
-uniform highp sampler2D splats;
-uniform vec4 hahaViewport;
-flat varying vec2 vMean;
-flat varying vec3 vConic;
-flat varying vec2 vParams;
-flat varying vec3 vColor;
-void main() {
-  int s = gl_VertexID / 4, corner = gl_VertexID % 4;
-  ivec2 b = ivec2((s % ${TEX_SPLATS_PER_ROW}) * 4, s / ${TEX_SPLATS_PER_ROW});
-  vec4 t0 = texelFetch(splats, b, 0), t1 = texelFetch(splats, b + ivec2(1, 0), 0);
-  vec4 t2 = texelFetch(splats, b + ivec2(2, 0), 0), t3 = texelFetch(splats, b + ivec2(3, 0), 0);
-  vec2 pix = mix(t0.xy, t0.zw, vec2(float(corner & 1), float(corner >> 1)));
-  gl_Position = vec4(2.0 * pix.x / hahaViewport.z - 1.0, 1.0 - 2.0 * pix.y / hahaViewport.w, t3.w, 1.0 + 0.0 * position.x);
-  vMean = t1.xy;
-  vConic = vec3(t1.zw, t2.x);
-  vParams = t2.yz;
-  vColor = t3.rgb;
-}`;
-
-// Babylon draws display-referred colours (gamma space), as the Gaussians' colours are.
-const SPLAT_FS = `
-precision highp float;
-uniform vec4 hahaViewport;
-flat varying vec2 vMean;
-flat varying vec3 vConic;
-flat varying vec2 vParams;
-flat varying vec3 vColor;
-void main() {
-  vec2 d = vec2(gl_FragCoord.x - hahaViewport.x, hahaViewport.w - (gl_FragCoord.y - hahaViewport.y)) - vMean;
-  float power = -0.5 * (vConic.x * d.x * d.x + vConic.z * d.y * d.y) - vConic.y * d.x * d.y;
-  if (power < vParams.y) discard;
-  float alpha = min(0.99, vParams.x * exp(power));
-  if (alpha < 1.0 / 255.0) discard;
-  gl_FragColor = vec4(vColor * alpha, alpha);
-}`;
+// The splat layer's GLSL (../splat.js) in Babylon's dialect (its WebGL2 engine turns
+// attribute / varying / gl_FragColor into GLSL ES 3.00). Babylon draws display-referred
+// colours (gamma space), as the Gaussians' colours are.
+const SPLAT_SHADERS = splatLayerShaders({
+  vertexOut: 'varying', fragmentIn: 'varying',
+  vertexHead: 'attribute vec3 position;  // unused (gl_VertexID picks the splat and corner)',
+  clipW: '1.0 + 0.0 * position.x',
+  writeColor: 'gl_FragColor = vec4(vColor * alpha, alpha);',
+});
 
 // Column-major 4 x 4 (Babylon's Matrix.m and three.js's elements share this layout) product a * b.
 function mul(a, b, out = new Float64Array(16)) {
@@ -154,20 +121,19 @@ export class HahaGaussianLayer {
     this.ibm = ibm;          // (55, 16) inverse bind matrices, column-major
     this.root = root;        // the loader's __root__ node (the avatar's glTF frame -> world)
     this.bodyNode = bodyNode;
-    this.projector = new SplatProjector(N);
-    const rows = Math.max(1, Math.ceil(N / TEX_SPLATS_PER_ROW));
-    this.splatData = new Float32Array(4 * 4 * TEX_SPLATS_PER_ROW * rows);
-    this.texture = B.RawTexture.CreateRGBATexture(this.splatData, 4 * TEX_SPLATS_PER_ROW, rows, scene, false, false,
+    const splats = new SplatTexture(N);
+    this.splats = splats;
+    this.projector = splats.projector;
+    this.splatData = splats.data;
+    this.texture = B.RawTexture.CreateRGBATexture(splats.data, splats.width, splats.height, scene, false, false,
       B.Constants.TEXTURE_NEAREST_SAMPLINGMODE, B.Constants.TEXTURETYPE_FLOAT);
     const mesh = new B.Mesh('HAHA_gaussians', scene);
     const positions = new Float32Array(3 * 4 * Math.max(1, N));
-    const indices = new Uint32Array(6 * Math.max(1, N));
-    for (let i = 0; i < N; i++) indices.set([4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 2, 4 * i + 1, 4 * i + 3], 6 * i);
     mesh.setVerticesData(B.VertexBuffer.PositionKind, positions, false);
-    mesh.setIndices(indices, 4 * Math.max(1, N));
+    mesh.setIndices(splats.indices, 4 * Math.max(1, N));
     mesh.alwaysSelectAsActiveMesh = true;
     mesh.isPickable = false;
-    const material = new B.ShaderMaterial('HAHA_gaussians', scene, { vertexSource: SPLAT_VS, fragmentSource: SPLAT_FS }, {
+    const material = new B.ShaderMaterial('HAHA_gaussians', scene, { vertexSource: SPLAT_SHADERS.vertex, fragmentSource: SPLAT_SHADERS.fragment }, {
       attributes: ['position'], uniforms: ['hahaViewport'], samplers: ['splats'], needAlphaBlending: true,
     });
     material.setTexture('splats', this.texture);
@@ -239,23 +205,14 @@ export class HahaGaussianLayer {
   }
 
   _updateExactBody() {
-    const a = this.avatar, P = this._exactPositions, bv = a.bodyVertex;
-    for (let g = 0; g < a.Vg; g++) {
-      const s = 3 * bv[g];
-      P[3 * g] = a.posed[s]; P[3 * g + 1] = a.posed[s + 1]; P[3 * g + 2] = a.posed[s + 2];
-    }
+    const P = this.avatar.posedGltfVertices(this._exactPositions);
     this.exactBody.updateVerticesData(this.B.VertexBuffer.PositionKind, P, false, false);
   }
 
   // World-space Gaussian centres (N x 3) after update().
   worldMeans(out = new Float64Array(3 * this.avatar.N)) {
     const e = this.root ? this.root.getWorldMatrix().m : [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
-    const m = this.avatar.means;
-    for (let i = 0; i < this.avatar.N; i++) {
-      const x = m[3 * i], y = m[3 * i + 1], z = m[3 * i + 2];
-      for (let r = 0; r < 3; r++) out[3 * i + r] = e[r] * x + e[4 + r] * y + e[8 + r] * z + e[12 + r];
-    }
-    return out;
+    return this.avatar.transformedMeans(e, out);
   }
 
   _project(camera) {
@@ -269,17 +226,10 @@ export class HahaGaussianLayer {
     const W = vp.width, H = vp.height, s = -P[11];  // s = 1: right-handed (looks along -z), -1: left-handed
     const rootM = this.root ? this.root.getWorldMatrix().m : [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
     const E = mul(V, rootM, this._m2);  // avatar frame -> Babylon view space
-    const a = this.avatar;
-    const cam = {
-      width: W, height: H,
-      fx: P[0] * W / 2, fy: P[5] * H / 2, cx: (1 - s * P[8]) * W / 2, cy: (1 + s * P[9]) * H / 2,
-      R: [E[0], E[4], E[8], -E[1], -E[5], -E[9], -s * E[2], -s * E[6], -s * E[10]],
-      t: [E[12], -E[13], -s * E[14]],
-      near: camera.minZ, far: Infinity, depthA: s * P[10], depthB: P[14], depthMargin: a.depthMargin,
-    };
-    const n = this.projector.project(cam, a.N, a.means, a.quats, a.scales, a.gOpacity, a.gColor, { corners: 0 });
-    this.projector.write(this.splatData, n, true);
-    this.texture.update(this.splatData);
+    const cam = openCvFromGl(P, E, W, H, camera.minZ, s);
+    cam.depthMargin = this.avatar.depthMargin;
+    const n = this.splats.project(cam, this.avatar);
+    this.texture.update(this.splats.data);
     this.material.setVector4('hahaViewport', new this.B.Vector4(vp.x, vp.y, W, H));
     sub.indexCount = 6 * n;
     this.visibleSplats = n;

@@ -22,10 +22,9 @@
 import * as THREE from 'three';
 import { Avatar, NUM_JOINTS } from '../avatar.js';
 import { Glb } from '../glb.js';
-import { SplatProjector, STRIDE } from '../splat.js';
+import { SplatTexture, splatLayerShaders, openCvFromGl } from '../splat.js';
 
 export const EXTENSION_NAME = 'HAHA_gaussian_avatar';
-const TEX_SPLATS_PER_ROW = 512;  // 4 RGBA32F texels per splat
 
 // The avatar reader's Draco decode function over a three.js DRACOLoader (worker pool).
 export function dracoLoaderDecode(dracoLoader) {
@@ -76,49 +75,13 @@ export class HahaGaussianAvatarPlugin {
   }
 }
 
-const SPLAT_VS = /* glsl */ `
-precision highp float;
-precision highp int;
-precision highp sampler2D;
-uniform sampler2D splats;  // 4 texels per splat: rect | mean, conic.ab | conic.c, opacity, power_min, z | colour, ndc z
-uniform vec4 hahaViewport; // x, y, width, height (pixels)
-flat out vec2 vMean;
-flat out vec3 vConic;
-flat out vec2 vParams;
-flat out vec3 vColor;
-void main() {
-  int s = gl_VertexID / 4, corner = gl_VertexID % 4;
-  ivec2 b = ivec2((s % ${TEX_SPLATS_PER_ROW}) * 4, s / ${TEX_SPLATS_PER_ROW});
-  vec4 t0 = texelFetch(splats, b, 0), t1 = texelFetch(splats, b + ivec2(1, 0), 0);
-  vec4 t2 = texelFetch(splats, b + ivec2(2, 0), 0), t3 = texelFetch(splats, b + ivec2(3, 0), 0);
-  vec2 pix = mix(t0.xy, t0.zw, vec2(float(corner & 1), float(corner >> 1)));
-  gl_Position = vec4(2.0 * pix.x / hahaViewport.z - 1.0, 1.0 - 2.0 * pix.y / hahaViewport.w, t3.w, 1.0);
-  vMean = t1.xy;
-  vConic = vec3(t1.zw, t2.x);
-  vParams = t2.yz;
-  vColor = t3.rgb;
-}`;
-
-// libhaha/render/gaussian_kernels.h pixel_alpha; premultiplied "over" blending back to front
-// gives the same sum as the rasterizer's front-to-back compositing.
-const SPLAT_FS = /* glsl */ `
-precision highp float;
-uniform vec4 hahaViewport;
-flat in vec2 vMean;
-flat in vec3 vConic;
-flat in vec2 vParams;
-flat in vec3 vColor;
-out vec4 hahaColor;
-void main() {
-  vec2 d = vec2(gl_FragCoord.x - hahaViewport.x, hahaViewport.w - (gl_FragCoord.y - hahaViewport.y)) - vMean;
-  float power = -0.5 * (vConic.x * d.x * d.x + vConic.z * d.y * d.y) - vConic.y * d.x * d.y;
-  if (power < vParams.y) discard;
-  float alpha = min(0.99, vParams.x * exp(power));
-  if (alpha < 1.0 / 255.0) discard;
-  // Colours are display-referred like the texture: to linear, then to the output space.
-  vec4 c = linearToOutputTexel(sRGBTransferEOTF(vec4(vColor, 1.0)));
-  hahaColor = vec4(c.rgb * alpha, alpha);
-}`;
+// The splat layer's GLSL (../splat.js) in three.js's dialect (ShaderMaterial, GLSL3). Colours
+// are display-referred like the texture: to linear, then to the output space.
+const SPLAT_SHADERS = splatLayerShaders({
+  vertexOut: 'out', fragmentIn: 'in', fragmentHead: 'out vec4 hahaColor;',
+  writeColor: `vec4 c = linearToOutputTexel(sRGBTransferEOTF(vec4(vColor, 1.0)));
+  hahaColor = vec4(c.rgb * alpha, alpha);`,
+});
 
 // The Gaussian layer: a child of gltf.scene (its frame is the avatar's glTF frame). update()
 // reposes from the bones (run automatically when the world matrices are updated and before
@@ -126,21 +89,18 @@ void main() {
 export class HahaGaussianLayer extends THREE.Mesh {
   constructor(avatar, skinnedMesh, options = {}) {
     const N = avatar.N;
-    const rows = Math.max(1, Math.ceil(N / TEX_SPLATS_PER_ROW));
-    const data = new Float32Array(4 * 4 * TEX_SPLATS_PER_ROW * rows);
-    const texture = new THREE.DataTexture(data, 4 * TEX_SPLATS_PER_ROW, rows, THREE.RGBAFormat, THREE.FloatType);
+    const splats = new SplatTexture(N);
+    const texture = new THREE.DataTexture(splats.data, splats.width, splats.height, THREE.RGBAFormat, THREE.FloatType);
     texture.minFilter = texture.magFilter = THREE.NearestFilter;
     texture.generateMipmaps = false;
     texture.needsUpdate = true;
     const geometry = new THREE.BufferGeometry();
-    const index = new Uint32Array(6 * Math.max(1, N));
-    for (let i = 0; i < N; i++) index.set([4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 2, 4 * i + 1, 4 * i + 3], 6 * i);
-    geometry.setIndex(new THREE.BufferAttribute(index, 1));
+    geometry.setIndex(new THREE.BufferAttribute(splats.indices, 1));
     geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(4 * Math.max(1, N)), 1));  // unused: gl_VertexID
     geometry.boundingSphere = new THREE.Sphere(new THREE.Vector3(), Infinity);
     geometry.setDrawRange(0, 0);
     const material = new THREE.ShaderMaterial({
-      glslVersion: THREE.GLSL3, vertexShader: SPLAT_VS, fragmentShader: SPLAT_FS,
+      glslVersion: THREE.GLSL3, vertexShader: SPLAT_SHADERS.vertex, fragmentShader: SPLAT_SHADERS.fragment,
       uniforms: { splats: { value: texture }, hahaViewport: { value: new THREE.Vector4() } },
       transparent: true, depthTest: true, depthWrite: false, depthFunc: THREE.LessEqualDepth,
       blending: THREE.CustomBlending, blendEquation: THREE.AddEquation,
@@ -154,8 +114,9 @@ export class HahaGaussianLayer extends THREE.Mesh {
     this.avatar = avatar;
     this.skinnedMesh = skinnedMesh;
     this.bones = skinnedMesh.skeleton.bones;
-    this.projector = new SplatProjector(N);
-    this.splatData = data;
+    this.splats = splats;
+    this.projector = splats.projector;
+    this.splatData = splats.data;
     this.splatTexture = texture;
     this.visibleSplats = 0;
     this._signature = new Float64Array(16 * (NUM_JOINTS + 1)).fill(NaN);
@@ -198,22 +159,16 @@ export class HahaGaussianLayer extends THREE.Mesh {
 
   // World-space centres of the Gaussians (Float64Array, N x 3) after update().
   worldMeans(out = new Float64Array(3 * this.avatar.N)) {
-    const e = this.matrixWorld.elements, m = this.avatar.means;
-    for (let i = 0; i < this.avatar.N; i++) {
-      const x = m[3 * i], y = m[3 * i + 1], z = m[3 * i + 2];
-      for (let r = 0; r < 3; r++) out[3 * i + r] = e[r] * x + e[4 + r] * y + e[8 + r] * z + e[12 + r];
-    }
-    return out;
+    return this.avatar.transformedMeans(this.matrixWorld.elements, out);
   }
 
   onBeforeRender(renderer, scene, camera) {
     this.update();
     const cam = this._openCvCamera(renderer, camera);
-    const mat = this.material, a = this.avatar;
+    const mat = this.material;
     if (!cam) { this.geometry.setDrawRange(0, 0); return; }
-    cam.depthMargin = a.depthMargin;
-    const n = this.projector.project(cam, a.N, a.means, a.quats, a.scales, a.gOpacity, a.gColor, { corners: 0 });
-    this.projector.write(this.splatData, n, true);
+    cam.depthMargin = this.avatar.depthMargin;
+    const n = this.splats.project(cam, this.avatar);
     this.splatTexture.needsUpdate = true;  // uploaded when the material binds it, this frame
     mat.uniforms.hahaViewport.value.copy(this._viewport);
     this.geometry.setDrawRange(0, 6 * n);
@@ -232,13 +187,7 @@ export class HahaGaussianLayer extends THREE.Mesh {
     const W = vp.z, H = vp.w;
     // OpenCV extrinsics: diag(1, -1, -1) * viewMatrix * (avatar frame -> world).
     const E = this._m.multiplyMatrices(camera.matrixWorldInverse, this.matrixWorld).elements;
-    return {
-      width: W, height: H,
-      fx: P[0] * W / 2, fy: P[5] * H / 2, cx: (1 - P[8]) * W / 2, cy: (1 + P[9]) * H / 2,
-      R: [E[0], E[4], E[8], -E[1], -E[5], -E[9], -E[2], -E[6], -E[10]],
-      t: [E[12], -E[13], -E[14]],
-      near: P[14] / (P[10] - 1), far: Infinity, depthA: P[10], depthB: P[14],
-    };
+    return openCvFromGl(P, E, W, H, P[14] / (P[10] - 1));
   }
 
   // exactBody: the body drawn from the CPU-posed vertices (every influence, pose correctives)
@@ -262,11 +211,7 @@ export class HahaGaussianLayer extends THREE.Mesh {
   }
 
   _updateExactBody() {
-    const a = this.avatar, P = this._exactPositions.array, bv = a.bodyVertex;
-    for (let g = 0; g < a.Vg; g++) {
-      const s = 3 * bv[g];
-      P[3 * g] = a.posed[s]; P[3 * g + 1] = a.posed[s + 1]; P[3 * g + 2] = a.posed[s + 2];
-    }
+    this.avatar.posedGltfVertices(this._exactPositions.array);
     this._exactPositions.needsUpdate = true;
   }
 }

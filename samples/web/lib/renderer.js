@@ -15,7 +15,7 @@
 //                     as haha render's PNGs; then copied to the canvas (reading the canvas
 //                     back stalls Chromium for hundreds of ms, the 8-bit target does not)
 import * as THREE from 'three';
-import { STRIDE, CORNERS } from '../../../format/js/splat.js';
+import { STRIDE, CORNERS, SPLAT_GLSL_VERTEX, SPLAT_GLSL_FRAGMENT, quadIndices } from '../../../format/js/splat.js';
 
 const MESH_VS = /* glsl */ `
 #include <common>
@@ -188,17 +188,18 @@ flat out vec2 vMean;
 flat out vec3 vConic;
 flat out vec3 vParams;
 flat out vec3 vColor;
+${SPLAT_GLSL_VERTEX}
 void main() {
   int corner = gl_VertexID % 4;  // 4 vertices per Gaussian (splat.js)
-  vec2 pix = mix(rect.xy, rect.zw, vec2(float(corner & 1), float(corner >> 1)));
-  gl_Position = vec4(2.0 * pix.x / viewport.x - 1.0, 1.0 - 2.0 * pix.y / viewport.y, 0.0, 1.0);
+  vec2 pix = hahaSplatCorner(rect, corner);
+  gl_Position = vec4(hahaPixelToClip(pix, viewport), 0.0, 1.0);
   vMean = meanConic.xy;
   vConic = vec3(meanConic.zw, params.x);
   vParams = params.yzw;
   vColor = color.rgb;
 }`;
 
-// render/gaussian_kernels.h pixel_alpha + gaussian_composite.h composite_step's depth test.
+// render/gaussian_kernels.h pixel_alpha (splat.js) + gaussian_composite.h composite_step's depth test.
 const SPLAT_FS = /* glsl */ `
 precision highp float;
 precision highp sampler2D;
@@ -210,12 +211,10 @@ flat in vec3 vConic;
 flat in vec3 vParams;
 flat in vec3 vColor;
 out vec4 fragColor;
+${SPLAT_GLSL_FRAGMENT}
 void main() {
   vec2 d = vec2(gl_FragCoord.x, viewport.y - gl_FragCoord.y) - vMean;
-  float power = -0.5 * (vConic.x * d.x * d.x + vConic.z * d.y * d.y) - vConic.y * d.x * d.y;
-  if (power < vParams.y) discard;
-  float alpha = min(0.99, vParams.x * exp(power));
-  if (alpha < 1.0 / 255.0) discard;
+  float alpha = hahaSplatAlpha(d, vConic, vParams.x, vParams.y);
   float D = texelFetch(meshTex, ivec2(gl_FragCoord.xy), 0).a;
   if (D > 0.0 && vParams.z > D + margin) discard;
   fragColor = vec4(vColor * alpha, alpha);
@@ -355,9 +354,7 @@ export class AvatarRenderer {
     this.splatData = new Float32Array(CORNERS * STRIDE * n);
     const buf = new THREE.InterleavedBuffer(this.splatData, STRIDE);
     buf.setUsage(THREE.DynamicDrawUsage);
-    const index = new Uint32Array(6 * n);
-    for (let i = 0; i < n; i++) index.set([4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 2, 4 * i + 1, 4 * i + 3], 6 * i);
-    g.setIndex(new THREE.BufferAttribute(index, 1));
+    g.setIndex(new THREE.BufferAttribute(quadIndices(n), 1));
     this.splatBuffer = buf;
     g.setAttribute('rect', new THREE.InterleavedBufferAttribute(buf, 4, 0));
     g.setAttribute('meanConic', new THREE.InterleavedBufferAttribute(buf, 4, 4));
