@@ -43,6 +43,338 @@ std::string short_num(double v) {
   return b;
 }
 
+using Plots = std::vector<std::pair<std::string, PlotSpec>>;
+
+// Storage is linear in the count (train/evaluate.h storage_bytes): the line read off two
+// points with different counts; 0 per Gaussian when there are no two.
+struct StorageLine {
+  double kb_per_gaussian = 0, kb_offset = 0;
+};
+
+StorageLine storage_line(const std::vector<FilterPoint>& filtering) {
+  StorageLine line;
+  for (const FilterPoint& a : filtering)
+    for (const FilterPoint& b : filtering)
+      if (line.kb_per_gaussian == 0 && b.q.gaussians > a.q.gaussians) {
+        line.kb_per_gaussian = double(b.q.storage_bytes - a.q.storage_bytes) / double(b.q.gaussians - a.q.gaussians) / 1024.0;
+        line.kb_offset = double(a.q.storage_bytes) / 1024.0 - line.kb_per_gaussian * a.q.gaussians;
+      }
+  return line;
+}
+
+// The trained HAHA avatar is also a point of the pruning curve (its lowest thresholds):
+// labelled there, not twice.
+struct HahaPoint {
+  const StageRow* row = nullptr;  // the stage table's "HAHA filtered"
+  bool on_rerun = false;  // "= HAHA as trained" goes on the re-run point at the run's own
+                          // weight when there is one, else on the pruning point at the trainer's threshold
+  bool shown = false;     // a filtering point carries it
+  bool is(const FilterPoint& fp) const {
+    return row && fp.q.gaussians == row->q.gaussians && fp.q.psnr == row->q.psnr;
+  }
+};
+
+// One filtering method's curve; empty x when the method has no point.
+PlotSeries filter_method_series(const BenchResult& r, const char* method, bool psnr, HahaPoint& haha) {
+  const bool prune = std::string(method) == "prune threshold";
+  std::vector<const FilterPoint*> pts;
+  for (const FilterPoint& fp : r.filtering)
+    if (fp.method == method) pts.push_back(&fp);
+  PlotSeries se;
+  if (pts.empty()) return se;
+  std::sort(pts.begin(), pts.end(), [](const FilterPoint* a, const FilterPoint* b) {
+    return a->q.gaussians != b->q.gaussians ? a->q.gaussians < b->q.gaussians : a->strength < b->strength;
+  });
+  se.label = prune ? "pruning the trained opacities (labels: threshold)" : "stage 3 re-run (labels: opacity weight)";
+  se.labels_below = !prune;  // the curves meet at the trained avatar: labels apart
+  // Points that coincide (same count and score) become one point labelled with the
+  // range of settings that produce it.
+  for (size_t i = 0; i < pts.size();) {
+    size_t k = i;
+    double lo = pts[i]->strength, hi = lo;
+    while (k + 1 < pts.size() && pts[k + 1]->q.gaussians == pts[i]->q.gaussians && pts[k + 1]->q.psnr == pts[i]->q.psnr) {
+      ++k;
+      lo = std::min(lo, pts[k]->strength);
+      hi = std::max(hi, pts[k]->strength);
+    }
+    se.x.push_back(pts[i]->q.gaussians);
+    se.y.push_back(psnr ? pts[i]->q.psnr : pts[i]->q.ssim);
+    std::string label = short_num(lo) + (hi > lo ? ".." + short_num(hi) : std::string());
+    if (haha.is(*pts[i])) {
+      if (prune == haha.on_rerun)
+        label.clear();  // the re-run point on top of it carries the label
+      else
+        label += " (= HAHA as trained)";
+      haha.shown = true;
+    }
+    se.point_labels.push_back(label);
+    i = k + 1;
+  }
+  return se;
+}
+
+// The stage table's variants: points, and a level across the plot for those without Gaussians.
+void add_stage_series(const BenchResult& r, bool psnr, const HahaPoint& haha, PlotSpec& p) {
+  PlotSeries ref;
+  ref.label = "trained variants (stage table)";
+  ref.lines = false;
+  for (const StageRow& s : r.stages) {
+    if (haha.shown && &s == haha.row) continue;
+    if (s.q.gaussians == 0) {  // no Gaussians: a level across the plot
+      PlotSeries mesh;
+      mesh.label = s.name + " (no Gaussians)";
+      mesh.x = {p.xmin, p.xmax};
+      const double v = psnr ? s.q.psnr : s.q.ssim;
+      mesh.y = {v, v};
+      mesh.right_axis = false;
+      mesh.dashed = true;
+      p.series.push_back(mesh);
+      continue;
+    }
+    ref.x.push_back(s.q.gaussians);
+    ref.y.push_back(psnr ? s.q.psnr : s.q.ssim);
+    ref.point_labels.push_back(s.name);
+  }
+  if (!ref.x.empty()) p.series.push_back(ref);
+}
+
+PlotSpec filter_budget_plot(const BenchResult& r, const std::string& sub, bool psnr, const StorageLine& line) {
+  PlotSpec p;
+  p.title = std::string("Gaussian budget against error (") + (psnr ? "PSNR" : "SSIM") + " on novel poses)";
+  p.subtitle = sub;
+  // Log count axis: the knee sits at a few thousand of tens of thousands. Storage is
+  // linear in the count; its formula goes in the axis label (gnuplot cannot link a
+  // second axis to a log axis).
+  p.xlabel = "Gaussians kept (count, log scale)";
+  if (line.kb_per_gaussian > 0)
+    p.xlabel += f("; storage = %.0f KB texture", line.kb_offset) +
+                f(" + %.3f KB per Gaussian (float32)", line.kb_per_gaussian);
+  p.ylabel = psnr ? "PSNR on test frames (dB)" : "SSIM on test frames (1 = identical)";
+  p.logx = true;
+  p.key = "top left";
+  double xlo = INFINITY, xhi = 0;
+  for (const FilterPoint& fp : r.filtering)
+    if (fp.q.gaussians > 0) xlo = std::min(xlo, double(fp.q.gaussians)), xhi = std::max(xhi, double(fp.q.gaussians));
+  for (const StageRow& s : r.stages)
+    if (s.q.gaussians > 0) xlo = std::min(xlo, double(s.q.gaussians)), xhi = std::max(xhi, double(s.q.gaussians));
+  if (xhi > 0) p.xmin = xlo / 1.6, p.xmax = xhi * 3.0;  // room for labels on the right
+  HahaPoint haha;
+  for (const StageRow& s : r.stages)
+    if (s.name == "HAHA filtered") haha.row = &s;
+  for (const FilterPoint& fp : r.filtering)
+    if (fp.method == "opacity weight" && haha.is(fp)) haha.on_rerun = true;
+  for (const char* method : {"prune threshold", "opacity weight"}) {
+    PlotSeries se = filter_method_series(r, method, psnr, haha);
+    if (!se.x.empty()) p.series.push_back(std::move(se));
+  }
+  if (!r.stages.empty()) add_stage_series(r, psnr, haha, p);
+  return p;
+}
+
+// 1: Gaussian budget against error, PSNR and SSIM, with the storage in the x label.
+void add_filter_plots(const BenchResult& r, const std::string& sub, Plots& plots) {
+  if (r.filtering.empty()) return;
+  const StorageLine line = storage_line(r.filtering);
+  for (int metric = 0; metric < 2; ++metric) {
+    const bool psnr = metric == 0;
+    plots.emplace_back(psnr ? "filter_budget.png" : "filter_budget_ssim.png", filter_budget_plot(r, sub, psnr, line));
+  }
+}
+
+// A texture point's label: its size, or the trained size named in the default setting
+// ("jpg q95 256px (default)").
+std::string texture_point_label(const PackPoint& pp) {
+  const bool is_default = pp.setting.name.find("(default)") != std::string::npos;
+  std::string label;
+  if (pp.setting.texture_size > 0) {
+    label = std::to_string(pp.setting.texture_size) + " px";
+  } else if (is_default) {
+    const size_t px = pp.setting.name.find("px");
+    const size_t sp = pp.setting.name.rfind(' ', px);
+    label = (px != std::string::npos && sp != std::string::npos ? pp.setting.name.substr(sp + 1, px - sp - 1) + " px, "
+                                                                 : std::string()) + "default";
+  }
+  return label;
+}
+
+PlotSpec pack_size_plot(const BenchResult& r, const std::string& sub) {
+  PlotSpec p;
+  p.title = "Packing against error: .glb size vs. fidelity to the original";
+  p.subtitle = sub;
+  p.xlabel = "avatar file size (KB)";
+  p.ylabel = "PSNR of unpacked renders vs. original renders (dB)";
+  p.key = "bottom right";
+  // One series per texture codec / quality (sizes joined, labelled), one for the bits.
+  PlotSeries bits;
+  bits.label = "Gaussian attributes at N bits (texture png)";
+  std::map<std::string, PlotSeries> tex;
+  std::vector<std::string> tex_order;
+  for (const PackPoint& pp : r.packing) {
+    // The lossless reference (infinite or capped PSNR) is in the table, not the plot.
+    if (pp.identical || pp.setting.group == "reference") continue;
+    const double kbytes = double(pp.bytes.total) / 1024.0;
+    if (pp.setting.group == "gaussian bits") {
+      bits.x.push_back(kbytes);
+      bits.y.push_back(pp.psnr_vs_original);
+      bits.point_labels.push_back(std::to_string(pp.setting.gaussian_bits) + " bit");
+      continue;
+    }
+    if (pp.setting.group != "texture") {  // mesh storage, allocation and corrective points: one series per group
+      if (!tex.count(pp.setting.group)) tex_order.push_back(pp.setting.group);
+      PlotSeries& s = tex[pp.setting.group];
+      s.label = pp.setting.group;
+      s.x.push_back(kbytes);
+      s.y.push_back(pp.psnr_vs_original);
+      s.point_labels.push_back(pp.setting.name);
+      continue;
+    }
+    const std::string codec = pp.setting.texture_codec == "png"
+                                  ? std::string("png")
+                                  : pp.setting.texture_codec + " quality " + std::to_string(pp.setting.texture_quality);
+    if (!tex.count(codec)) tex_order.push_back(codec);
+    PlotSeries& s = tex[codec];
+    s.label = "texture " + codec + " (Gaussians at default bits)";
+    s.x.push_back(kbytes);
+    s.y.push_back(pp.psnr_vs_original);
+    s.point_labels.push_back(texture_point_label(pp));
+  }
+  if (!bits.x.empty()) p.series.push_back(bits);
+  for (const std::string& c : tex_order) {
+    PlotSeries& s = tex[c];
+    s.lines = s.x.size() > 1;
+    s.labels_below = true;  // the bit labels sit above their points
+    bool any = false;
+    for (const std::string& l : s.point_labels) any |= !l.empty();
+    if (!any) s.point_labels.clear();
+    if (s.x.size() > 1 && s.label.rfind("texture ", 0) == 0) s.label = "texture " + c + " at N px (Gaussians at default bits)";
+    p.series.push_back(s);
+  }
+  return p;
+}
+
+PlotSpec pack_time_plot(const BenchResult& r, const std::string& sub) {
+  PlotSpec d;
+  d.title = "Packing and decoding time per setting";
+  d.subtitle = sub;
+  d.xlabel = "pack setting";
+  d.ylabel = "time (ms)";
+  d.key = "top right";
+  d.height = 680;
+  d.xtic_rotate = 35;
+  PlotSeries dec, pk;
+  dec.label = "decode: .glb bytes -> avatar (fastest of 3)";
+  pk.label = "pack: avatar -> .glb bytes (one run)";
+  for (size_t i = 0; i < r.packing.size(); ++i) {
+    d.xcategories.push_back(r.packing[i].setting.name);
+    dec.x.push_back(double(i));
+    dec.y.push_back(r.packing[i].decode_ms);
+    pk.x.push_back(double(i));
+    pk.y.push_back(r.packing[i].pack_ms);
+  }
+  dec.lines = pk.lines = false;
+  d.series = {dec, pk};
+  return d;
+}
+
+// 2: packing against error.
+void add_pack_plots(const BenchResult& r, const std::string& sub, Plots& plots) {
+  if (r.packing.empty()) return;
+  const PlotSpec p = pack_size_plot(r, sub);
+  if (!p.series.empty()) plots.emplace_back("pack_size_error.png", p);
+  plots.emplace_back("pack_time.png", pack_time_plot(r, sub));
+}
+
+std::string render_device(const RenderTiming& t) {
+  return t.device == "cpu" ? "CPU " + std::to_string(t.threads) + " thread" + (t.threads == 1 ? "" : "s")
+                           : std::string("GPU");
+}
+
+void add_render_resolution_plot(const BenchResult& r, const std::string& sub, Plots& plots) {
+  PlotSpec p;
+  p.title = "Render time against resolution";
+  p.subtitle = sub;
+  p.xlabel = "image side (pixels, square image; log scale)";
+  p.ylabel = "time per frame, LBS + render (ms, median; log scale)";
+  p.logx = p.logy = true;
+  p.key = "top left";
+  std::map<std::string, PlotSeries> series;
+  std::set<int> resolutions;
+  for (const RenderTiming& t : r.render) {
+    if (t.sweep != "resolution") continue;
+    resolutions.insert(t.resolution);
+    const std::string what = t.gaussians == 0 ? "mesh only" : std::to_string(t.gaussians) + " Gaussians + mesh";
+    const std::string dev = render_device(t);
+    PlotSeries& s = series[dev + ", " + what];
+    s.label = dev + ", " + what;
+    s.x.push_back(t.resolution);
+    s.y.push_back(t.ms_median);
+  }
+  for (auto& [k, s] : series) p.series.push_back(s);
+  if (!resolutions.empty()) {
+    p.xmin = *resolutions.begin() / 1.25;
+    p.xmax = *resolutions.rbegin() * 1.25;
+    p.xtics.assign(resolutions.begin(), resolutions.end());
+  }
+  if (resolutions.size() > 1 && !p.series.empty()) plots.emplace_back("render_resolution.png", p);
+}
+
+void add_render_count_plot(const BenchResult& r, const std::string& sub, Plots& plots) {
+  int best_res = 0;
+  size_t best_n = 0;
+  for (const RenderTiming& t : r.render)
+    if (t.sweep == "gaussians") best_res = t.resolution, ++best_n;
+  PlotSpec c;
+  c.title = "Render time against Gaussian count (" + std::to_string(best_res) + " x " + std::to_string(best_res) + " px, with the mesh)";
+  c.subtitle = sub;
+  c.xlabel = "Gaussians rendered (count)";
+  c.ylabel = "time per frame, LBS + render (ms, median)";
+  c.key = "top left";
+  std::map<std::string, PlotSeries> cs;
+  for (const RenderTiming& t : r.render) {
+    if (t.sweep != "gaussians") continue;
+    const std::string dev = render_device(t);
+    PlotSeries& s = cs[dev];
+    s.label = dev;
+    s.x.push_back(t.gaussians);
+    s.y.push_back(t.ms_median);
+  }
+  for (auto& [k, s] : cs) {
+    std::vector<size_t> idx(s.x.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+    const std::vector<double>& xs = s.x;  // clang 14 cannot capture a structured binding
+    std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return xs[a] < xs[b]; });
+    PlotSeries t = s;
+    for (size_t i = 0; i < idx.size(); ++i) t.x[i] = s.x[idx[i]], t.y[i] = s.y[idx[i]];
+    c.series.push_back(t);
+  }
+  if (best_n > 1) plots.emplace_back("render_gaussians.png", c);
+}
+
+// 4: training time against quality.
+PlotSpec training_quality_plot(const BenchResult& r, const std::string& sub) {
+  PlotSpec p;
+  p.title = "Training time against quality (the trainer's stage table)";
+  p.subtitle = sub;
+  p.xlabel = "training wall time needed for the variant (s)";
+  p.ylabel = "PSNR on test frames (dB)";
+  p.y2label = "SSIM on test frames (1 = identical)";
+  p.key = "bottom right";
+  PlotSeries ps, ss;
+  ps.label = "PSNR (left axis)";
+  ss.label = "SSIM (right axis)";
+  ss.right_axis = true;
+  ps.lines = ss.lines = false;
+  for (const StageRow& s : r.stages) {
+    ps.x.push_back(s.train_seconds);
+    ps.y.push_back(s.q.psnr);
+    ps.point_labels.push_back(s.name);
+    ss.x.push_back(s.train_seconds);
+    ss.y.push_back(s.q.ssim);
+  }
+  p.series = {ps, ss};
+  return p;
+}
+
 }  // namespace
 
 std::string bench_date() {
@@ -55,290 +387,15 @@ std::string bench_date() {
 }
 
 std::vector<std::pair<std::string, PlotSpec>> bench_plots(const BenchResult& r) {
-  std::vector<std::pair<std::string, PlotSpec>> plots;
+  Plots plots;
   const std::string sub = subtitle(r);
-
-  // 1: Gaussian budget against error, PSNR and SSIM, with the storage on a top axis.
-  if (!r.filtering.empty()) {
-    // Storage is linear in the count (train/evaluate.h storage_bytes): read the line off
-    // two points with different counts.
-    double kb_per_gaussian = 0, kb_offset = 0;
-    for (const FilterPoint& a : r.filtering)
-      for (const FilterPoint& b : r.filtering)
-        if (kb_per_gaussian == 0 && b.q.gaussians > a.q.gaussians) {
-          kb_per_gaussian = double(b.q.storage_bytes - a.q.storage_bytes) / double(b.q.gaussians - a.q.gaussians) / 1024.0;
-          kb_offset = double(a.q.storage_bytes) / 1024.0 - kb_per_gaussian * a.q.gaussians;
-        }
-    for (int metric = 0; metric < 2; ++metric) {
-      const bool psnr = metric == 0;
-      PlotSpec p;
-      p.title = std::string("Gaussian budget against error (") + (psnr ? "PSNR" : "SSIM") + " on novel poses)";
-      p.subtitle = sub;
-      // Log count axis: the knee sits at a few thousand of tens of thousands. Storage is
-      // linear in the count; its formula goes in the axis label (gnuplot cannot link a
-      // second axis to a log axis).
-      p.xlabel = "Gaussians kept (count, log scale)";
-      if (kb_per_gaussian > 0)
-        p.xlabel += f("; storage = %.0f KB texture", kb_offset) + f(" + %.3f KB per Gaussian (float32)", kb_per_gaussian);
-      p.ylabel = psnr ? "PSNR on test frames (dB)" : "SSIM on test frames (1 = identical)";
-      p.logx = true;
-      p.key = "top left";
-      double xlo = INFINITY, xhi = 0;
-      for (const FilterPoint& fp : r.filtering)
-        if (fp.q.gaussians > 0) xlo = std::min(xlo, double(fp.q.gaussians)), xhi = std::max(xhi, double(fp.q.gaussians));
-      for (const StageRow& s : r.stages)
-        if (s.q.gaussians > 0) xlo = std::min(xlo, double(s.q.gaussians)), xhi = std::max(xhi, double(s.q.gaussians));
-      if (xhi > 0) p.xmin = xlo / 1.6, p.xmax = xhi * 3.0;  // room for labels on the right
-      // The trained HAHA avatar is also a point of the pruning curve (its lowest thresholds):
-      // labelled there, not twice.
-      const StageRow* haha_row = nullptr;
-      for (const StageRow& s : r.stages)
-        if (s.name == "HAHA filtered") haha_row = &s;
-      bool haha_shown = false;
-      // "= HAHA as trained" goes on the re-run point at the run's own weight when there is
-      // one, else on the pruning point at the trainer's threshold.
-      bool haha_on_rerun = false;
-      for (const FilterPoint& fp : r.filtering)
-        if (haha_row && fp.method == "opacity weight" && fp.q.gaussians == haha_row->q.gaussians && fp.q.psnr == haha_row->q.psnr)
-          haha_on_rerun = true;
-      for (const char* method : {"prune threshold", "opacity weight"}) {
-        const bool prune = std::string(method) == "prune threshold";
-        std::vector<const FilterPoint*> pts;
-        for (const FilterPoint& fp : r.filtering)
-          if (fp.method == method) pts.push_back(&fp);
-        if (pts.empty()) continue;
-        std::sort(pts.begin(), pts.end(), [](const FilterPoint* a, const FilterPoint* b) {
-          return a->q.gaussians != b->q.gaussians ? a->q.gaussians < b->q.gaussians : a->strength < b->strength;
-        });
-        PlotSeries se;
-        se.label = prune ? "pruning the trained opacities (labels: threshold)" : "stage 3 re-run (labels: opacity weight)";
-        se.labels_below = !prune;  // the curves meet at the trained avatar: labels apart
-        // Points that coincide (same count and score) become one point labelled with the
-        // range of settings that produce it.
-        for (size_t i = 0; i < pts.size();) {
-          size_t k = i;
-          double lo = pts[i]->strength, hi = lo;
-          while (k + 1 < pts.size() && pts[k + 1]->q.gaussians == pts[i]->q.gaussians && pts[k + 1]->q.psnr == pts[i]->q.psnr) {
-            ++k;
-            lo = std::min(lo, pts[k]->strength);
-            hi = std::max(hi, pts[k]->strength);
-          }
-          se.x.push_back(pts[i]->q.gaussians);
-          se.y.push_back(psnr ? pts[i]->q.psnr : pts[i]->q.ssim);
-          std::string label = short_num(lo) + (hi > lo ? ".." + short_num(hi) : std::string());
-          if (haha_row && pts[i]->q.gaussians == haha_row->q.gaussians && pts[i]->q.psnr == haha_row->q.psnr) {
-            if (prune == haha_on_rerun)
-              label.clear();  // the re-run point on top of it carries the label
-            else
-              label += " (= HAHA as trained)";
-            haha_shown = true;
-          }
-          se.point_labels.push_back(label);
-          i = k + 1;
-        }
-        p.series.push_back(se);
-      }
-      if (!r.stages.empty()) {
-        PlotSeries ref;
-        ref.label = "trained variants (stage table)";
-        ref.lines = false;
-        for (const StageRow& s : r.stages) {
-          if (haha_shown && &s == haha_row) continue;
-          if (s.q.gaussians == 0) {  // no Gaussians: a level across the plot
-            PlotSeries mesh;
-            mesh.label = s.name + " (no Gaussians)";
-            mesh.x = {p.xmin, p.xmax};
-            const double v = psnr ? s.q.psnr : s.q.ssim;
-            mesh.y = {v, v};
-            mesh.right_axis = false;
-            mesh.dashed = true;
-            p.series.push_back(mesh);
-            continue;
-          }
-          ref.x.push_back(s.q.gaussians);
-          ref.y.push_back(psnr ? s.q.psnr : s.q.ssim);
-          ref.point_labels.push_back(s.name);
-        }
-        if (!ref.x.empty()) p.series.push_back(ref);
-      }
-      plots.emplace_back(psnr ? "filter_budget.png" : "filter_budget_ssim.png", p);
-    }
+  add_filter_plots(r, sub, plots);
+  add_pack_plots(r, sub, plots);
+  if (!r.render.empty()) {  // 3: render speed
+    add_render_resolution_plot(r, sub, plots);
+    add_render_count_plot(r, sub, plots);
   }
-
-  // 2: packing against error.
-  if (!r.packing.empty()) {
-    PlotSpec p;
-    p.title = "Packing against error: .glb size vs. fidelity to the original";
-    p.subtitle = sub;
-    p.xlabel = "avatar file size (KB)";
-    p.ylabel = "PSNR of unpacked renders vs. original renders (dB)";
-    p.key = "bottom right";
-    // One series per texture codec / quality (sizes joined, labelled), one for the bits.
-    PlotSeries bits;
-    bits.label = "Gaussian attributes at N bits (texture png)";
-    std::map<std::string, PlotSeries> tex;
-    std::vector<std::string> tex_order;
-    for (const PackPoint& pp : r.packing) {
-      // The lossless reference (infinite or capped PSNR) is in the table, not the plot.
-      if (pp.identical || pp.setting.group == "reference") continue;
-      const double kbytes = double(pp.bytes.total) / 1024.0;
-      if (pp.setting.group == "gaussian bits") {
-        bits.x.push_back(kbytes);
-        bits.y.push_back(pp.psnr_vs_original);
-        bits.point_labels.push_back(std::to_string(pp.setting.gaussian_bits) + " bit");
-        continue;
-      }
-      if (pp.setting.group != "texture") {  // mesh storage, allocation and corrective points: one series per group
-        if (!tex.count(pp.setting.group)) tex_order.push_back(pp.setting.group);
-        PlotSeries& s = tex[pp.setting.group];
-        s.label = pp.setting.group;
-        s.x.push_back(kbytes);
-        s.y.push_back(pp.psnr_vs_original);
-        s.point_labels.push_back(pp.setting.name);
-        continue;
-      }
-      const std::string codec = pp.setting.texture_codec == "png"
-                                    ? std::string("png")
-                                    : pp.setting.texture_codec + " quality " + std::to_string(pp.setting.texture_quality);
-      if (!tex.count(codec)) tex_order.push_back(codec);
-      PlotSeries& s = tex[codec];
-      s.label = "texture " + codec + " (Gaussians at default bits)";
-      s.x.push_back(kbytes);
-      s.y.push_back(pp.psnr_vs_original);
-      const bool is_default = pp.setting.name.find("(default)") != std::string::npos;
-      std::string label;
-      if (pp.setting.texture_size > 0) {
-        label = std::to_string(pp.setting.texture_size) + " px";
-      } else if (is_default) {  // the trained size, named in the setting ("jpg q95 256px (default)")
-        const size_t px = pp.setting.name.find("px");
-        const size_t sp = pp.setting.name.rfind(' ', px);
-        label = (px != std::string::npos && sp != std::string::npos ? pp.setting.name.substr(sp + 1, px - sp - 1) + " px, "
-                                                                     : std::string()) + "default";
-      }
-      s.point_labels.push_back(label);
-    }
-    if (!bits.x.empty()) p.series.push_back(bits);
-    for (const std::string& c : tex_order) {
-      PlotSeries& s = tex[c];
-      s.lines = s.x.size() > 1;
-      s.labels_below = true;  // the bit labels sit above their points
-      bool any = false;
-      for (const std::string& l : s.point_labels) any |= !l.empty();
-      if (!any) s.point_labels.clear();
-      if (s.x.size() > 1 && s.label.rfind("texture ", 0) == 0) s.label = "texture " + c + " at N px (Gaussians at default bits)";
-      p.series.push_back(s);
-    }
-    if (!p.series.empty()) plots.emplace_back("pack_size_error.png", p);
-
-    PlotSpec d;
-    d.title = "Packing and decoding time per setting";
-    d.subtitle = sub;
-    d.xlabel = "pack setting";
-    d.ylabel = "time (ms)";
-    d.key = "top right";
-    d.height = 680;
-    d.xtic_rotate = 35;
-    PlotSeries dec, pk;
-    dec.label = "decode: .glb bytes -> avatar (fastest of 3)";
-    pk.label = "pack: avatar -> .glb bytes (one run)";
-    for (size_t i = 0; i < r.packing.size(); ++i) {
-      d.xcategories.push_back(r.packing[i].setting.name);
-      dec.x.push_back(double(i));
-      dec.y.push_back(r.packing[i].decode_ms);
-      pk.x.push_back(double(i));
-      pk.y.push_back(r.packing[i].pack_ms);
-    }
-    dec.lines = pk.lines = false;
-    d.series = {dec, pk};
-    plots.emplace_back("pack_time.png", d);
-  }
-
-  // 3: render speed.
-  if (!r.render.empty()) {
-    PlotSpec p;
-    p.title = "Render time against resolution";
-    p.subtitle = sub;
-    p.xlabel = "image side (pixels, square image; log scale)";
-    p.ylabel = "time per frame, LBS + render (ms, median; log scale)";
-    p.logx = p.logy = true;
-    p.key = "top left";
-    std::map<std::string, PlotSeries> series;
-    std::set<int> resolutions;
-    for (const RenderTiming& t : r.render) {
-      if (t.sweep != "resolution") continue;
-      resolutions.insert(t.resolution);
-      const std::string what = t.gaussians == 0 ? "mesh only" : std::to_string(t.gaussians) + " Gaussians + mesh";
-      const std::string dev = t.device == "cpu" ? "CPU " + std::to_string(t.threads) + " thread" + (t.threads == 1 ? "" : "s")
-                                                : std::string("GPU");
-      PlotSeries& s = series[dev + ", " + what];
-      s.label = dev + ", " + what;
-      s.x.push_back(t.resolution);
-      s.y.push_back(t.ms_median);
-    }
-    for (auto& [k, s] : series) p.series.push_back(s);
-    if (!resolutions.empty()) {
-      p.xmin = *resolutions.begin() / 1.25;
-      p.xmax = *resolutions.rbegin() * 1.25;
-      p.xtics.assign(resolutions.begin(), resolutions.end());
-    }
-    if (resolutions.size() > 1 && !p.series.empty()) plots.emplace_back("render_resolution.png", p);
-
-    int best_res = 0;
-    size_t best_n = 0;
-    for (const RenderTiming& t : r.render)
-      if (t.sweep == "gaussians") best_res = t.resolution, ++best_n;
-    PlotSpec c;
-    c.title = "Render time against Gaussian count (" + std::to_string(best_res) + " x " + std::to_string(best_res) + " px, with the mesh)";
-    c.subtitle = sub;
-    c.xlabel = "Gaussians rendered (count)";
-    c.ylabel = "time per frame, LBS + render (ms, median)";
-    c.key = "top left";
-    std::map<std::string, PlotSeries> cs;
-    for (const RenderTiming& t : r.render) {
-      if (t.sweep != "gaussians") continue;
-      const std::string dev = t.device == "cpu" ? "CPU " + std::to_string(t.threads) + " thread" + (t.threads == 1 ? "" : "s")
-                                                : std::string("GPU");
-      PlotSeries& s = cs[dev];
-      s.label = dev;
-      s.x.push_back(t.gaussians);
-      s.y.push_back(t.ms_median);
-    }
-    for (auto& [k, s] : cs) {
-      std::vector<size_t> idx(s.x.size());
-      for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-      const std::vector<double>& xs = s.x;  // clang 14 cannot capture a structured binding
-      std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return xs[a] < xs[b]; });
-      PlotSeries t = s;
-      for (size_t i = 0; i < idx.size(); ++i) t.x[i] = s.x[idx[i]], t.y[i] = s.y[idx[i]];
-      c.series.push_back(t);
-    }
-    if (best_n > 1) plots.emplace_back("render_gaussians.png", c);
-  }
-
-  // 4: training time against quality.
-  if (!r.stages.empty()) {
-    PlotSpec p;
-    p.title = "Training time against quality (the trainer's stage table)";
-    p.subtitle = sub;
-    p.xlabel = "training wall time needed for the variant (s)";
-    p.ylabel = "PSNR on test frames (dB)";
-    p.y2label = "SSIM on test frames (1 = identical)";
-    p.key = "bottom right";
-    PlotSeries ps, ss;
-    ps.label = "PSNR (left axis)";
-    ss.label = "SSIM (right axis)";
-    ss.right_axis = true;
-    ps.lines = ss.lines = false;
-    for (const StageRow& s : r.stages) {
-      ps.x.push_back(s.train_seconds);
-      ps.y.push_back(s.q.psnr);
-      ps.point_labels.push_back(s.name);
-      ss.x.push_back(s.train_seconds);
-      ss.y.push_back(s.q.ssim);
-    }
-    p.series = {ps, ss};
-    plots.emplace_back("training_quality.png", p);
-  }
+  if (!r.stages.empty()) plots.emplace_back("training_quality.png", training_quality_plot(r, sub));
   return plots;
 }
 
