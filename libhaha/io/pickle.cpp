@@ -268,6 +268,14 @@ class PickleParser {
   PyObj* make_dtype(const PyObj& args);
   void fill_array(PyObj* arr, const DtypeInfo& dt, const PyObj& shape_obj, bool fortran, const PyObj& data);
   std::string bytes_of(const PyObj& o, const char* what);
+
+  // Opcode groups of run(): each returns false for an opcode outside its group.
+  bool stack_op(uint8_t op);
+  bool push_constant_op(uint8_t op);
+  bool container_op(uint8_t op);
+  bool memo_op(uint8_t op);
+  bool object_op(uint8_t op);
+  [[noreturn]] void refuse_op(uint8_t op);  // refused and unknown opcodes
 };
 
 void PickleParser::resolve_global(const std::string& module, const std::string& name) {
@@ -599,204 +607,238 @@ Pickle PickleParser::run() {
     op_pos_ = pos_;
     if (pos_ >= n_) error("truncated (no STOP opcode)");
     const uint8_t op = p_[pos_++];
-    switch (op) {
-      case 0x80: {  // PROTO
-        const uint8_t v = u8();
-        if (v > 5) error("unsupported pickle protocol " + std::to_string(v));
-        break;
-      }
-      case 0x95: uint_le(8); break;  // FRAME: the whole input is in memory already
-      case '.': {                    // STOP
-        if (stack_.size() != 1 || !marks_.empty()) error("STOP with " + std::to_string(stack_.size()) + " objects on the stack");
-        if (!pending_arrays_.empty()) error("numpy array never received its data (missing BUILD)");
-        out_.root_ = stack_.back();
-        return std::move(out_);
-      }
-      case '(': marks_.push_back(stack_.size()); break;  // MARK
-      case '0': pop(); break;                            // POP
-      case '1': pop_mark(); break;                       // POP_MARK
-      case '2': push(top()); break;                      // DUP
-      case 'N': push(make(PyKind::none)); break;
-      case 0x88: { PyObj* o = make(PyKind::boolean); o->b = true; push(o); break; }   // NEWTRUE
-      case 0x89: { PyObj* o = make(PyKind::boolean); o->b = false; push(o); break; }  // NEWFALSE
-      case 'J': push(make_int(int32_t(uint32_t(uint_le(4))))); break;  // BININT
-      case 'K': push(make_int(int64_t(uint_le(1)))); break;            // BININT1
-      case 'M': push(make_int(int64_t(uint_le(2)))); break;            // BININT2
-      case 0x8a: { const uint64_t len = uint_le(1); push(make_int(long_from_bytes(raw(len)))); break; }  // LONG1
-      case 0x8b: {  // LONG4
-        const uint64_t len = uint_le(4);
-        if (len > 64) error("integer does not fit in 64 bits");
-        push(make_int(long_from_bytes(raw(len))));
-        break;
-      }
-      case 'I': {  // INT (text): also the protocol-0 spelling of True/False
-        const std::string s = line();
-        if (s == "01" || s == "00") { PyObj* o = make(PyKind::boolean); o->b = s == "01"; push(o); break; }
-        char* end = nullptr;
-        errno = 0;
-        const long long v = std::strtoll(s.c_str(), &end, 10);
-        if (s.empty() || *end || errno) error("bad INT argument '" + s + "'");
-        push(make_int(v));
-        break;
-      }
-      case 'L': {  // LONG (text)
-        std::string s = line();
-        if (!s.empty() && s.back() == 'L') s.pop_back();
-        char* end = nullptr;
-        errno = 0;
-        const long long v = std::strtoll(s.c_str(), &end, 10);
-        if (s.empty() || *end || errno) error("bad LONG argument (or beyond 64 bits)");
-        push(make_int(v));
-        break;
-      }
-      case 'G': {  // BINFLOAT: big-endian double
-        need(8);
-        uint64_t u = 0;
-        for (int k = 0; k < 8; ++k) u = (u << 8) | p_[pos_ + size_t(k)];
-        pos_ += 8;
-        PyObj* o = make(PyKind::floating);
-        std::memcpy(&o->f, &u, 8);
-        push(o);
-        break;
-      }
-      case 'F': {  // FLOAT (text)
-        const std::string s = line();
-        char* end = nullptr;
-        const double v = std::strtod(s.c_str(), &end);
-        if (s.empty() || *end) error("bad FLOAT argument '" + s + "'");
-        PyObj* o = make(PyKind::floating);
-        o->f = v;
-        push(o);
-        break;
-      }
-      case 'X': push(make_text(PyKind::string, raw(uint_le(4)))); break;     // BINUNICODE
-      case 0x8c: push(make_text(PyKind::string, raw(uint_le(1)))); break;   // SHORT_BINUNICODE
-      case 0x8d: push(make_text(PyKind::string, raw(uint_le(8)))); break;   // BINUNICODE8
-      case 'T': push(make_text(PyKind::bytes, raw(uint_le(4)))); break;     // BINSTRING (py2 str)
-      case 'U': push(make_text(PyKind::bytes, raw(uint_le(1)))); break;     // SHORT_BINSTRING
-      case 'B': push(make_text(PyKind::bytes, raw(uint_le(4)))); break;     // BINBYTES
-      case 'C': push(make_text(PyKind::bytes, raw(uint_le(1)))); break;     // SHORT_BINBYTES
-      case 0x8e: push(make_text(PyKind::bytes, raw(uint_le(8)))); break;    // BINBYTES8
-      case 0x96: push(make_text(PyKind::bytes, raw(uint_le(8)))); break;    // BYTEARRAY8
-      case 0x97: error("out-of-band buffer (NEXT_BUFFER) is not supported");
-      case 0x98: top(); break;  // READONLY_BUFFER: in-band data is already a plain copy
-      case ')': push(make(PyKind::tuple)); break;  // EMPTY_TUPLE
-      case 0x85: { PyObj* a = pop(); push(make_tuple({a})); break; }                        // TUPLE1
-      case 0x86: { PyObj* b = pop(); PyObj* a = pop(); push(make_tuple({a, b})); break; }  // TUPLE2
-      case 0x87: {                                                                          // TUPLE3
-        PyObj* c = pop(); PyObj* b = pop(); PyObj* a = pop();
-        push(make_tuple({a, b, c}));
-        break;
-      }
-      case 't': push(make_tuple(pop_mark())); break;  // TUPLE
-      case ']': push(make(PyKind::list)); break;      // EMPTY_LIST
-      case 'l': {                                     // LIST
-        PyObj* o = make(PyKind::list);
-        auto items = pop_mark();
-        o->items.assign(items.begin(), items.end());
-        push(o);
-        break;
-      }
-      case 'a': {  // APPEND
-        PyObj* v = pop();
-        PyObj* l = top();
-        if (l->kind != PyKind::list) error(std::string("APPEND to a ") + py_kind_name(l->kind));
-        l->items.push_back(v);
-        break;
-      }
-      case 'e': {  // APPENDS
-        auto items = pop_mark();
-        PyObj* l = top();
-        if (l->kind != PyKind::list) error(std::string("APPENDS to a ") + py_kind_name(l->kind));
-        l->items.insert(l->items.end(), items.begin(), items.end());
-        break;
-      }
-      case '}': push(make(PyKind::dict)); break;  // EMPTY_DICT
-      case 'd': {                                 // DICT
-        PyObj* d = make(PyKind::dict);
-        set_items(d, pop_mark());
-        push(d);
-        break;
-      }
-      case 's': {  // SETITEM
-        PyObj* v = pop();
-        PyObj* k = pop();
-        set_items(top(), {k, v});
-        break;
-      }
-      case 'u': {  // SETITEMS
-        auto kv = pop_mark();
-        set_items(top(), kv);
-        break;
-      }
-      case 0x8f: push(make(PyKind::set)); break;  // EMPTY_SET
-      case 0x90: {                                // ADDITEMS
-        auto items = pop_mark();
-        PyObj* s = top();
-        if (s->kind != PyKind::set || frozen_.count(s)) error("ADDITEMS to something other than a set");
-        s->items.insert(s->items.end(), items.begin(), items.end());
-        break;
-      }
-      case 0x91: {  // FROZENSET
-        PyObj* s = make(PyKind::set);
-        auto items = pop_mark();
-        s->items.assign(items.begin(), items.end());
-        frozen_[s] = true;
-        push(s);
-        break;
-      }
-      case 'p': {  // PUT (text)
-        const std::string s = line();
-        char* end = nullptr;
-        const unsigned long long idx = std::strtoull(s.c_str(), &end, 10);
-        if (s.empty() || *end) error("bad PUT argument");
-        memo_put(idx, top());
-        break;
-      }
-      case 'g': {  // GET (text)
-        const std::string s = line();
-        char* end = nullptr;
-        const unsigned long long idx = std::strtoull(s.c_str(), &end, 10);
-        if (s.empty() || *end) error("bad GET argument");
-        push(memo_get(idx));
-        break;
-      }
-      case 'q': memo_put(uint_le(1), top()); break;       // BINPUT
-      case 'r': memo_put(uint_le(4), top()); break;       // LONG_BINPUT
-      case 0x94: memo_put(memo_.size(), top()); break;    // MEMOIZE
-      case 'h': push(memo_get(uint_le(1))); break;        // BINGET
-      case 'j': push(memo_get(uint_le(4))); break;        // LONG_BINGET
-      case 'c': {                                         // GLOBAL "module\nname\n"
-        const std::string module = line();
-        const std::string name = line();
-        resolve_global(module, name);
-        break;
-      }
-      case 0x93: {  // STACK_GLOBAL
-        PyObj* name = pop();
-        PyObj* module = pop();
-        if (module->kind != PyKind::string || name->kind != PyKind::string) error("STACK_GLOBAL on non-strings");
-        resolve_global(module->str, name->str);
-        break;
-      }
-      case 'R': reduce(); break;
-      case 'b': build(); break;
-      case 0x81:  // NEWOBJ
-      case 0x92:  // NEWOBJ_EX
-        error("object construction (NEWOBJ) is not allowed");
-      case 'i': case 'o':
-        error("object construction (INST/OBJ) is not allowed");
-      case 'P': case 'Q':
-        error("persistent ids are not supported (torch tensors? save numpy arrays instead)");
-      case 0x82: case 0x83: case 0x84:
-        error("extension registry codes are not supported");
-      case 'S': case 'V':
-        error("protocol-0 text strings are not supported (re-save with protocol 2 or higher)");
-      default: {
-        char hex[8];
-        std::snprintf(hex, sizeof hex, "0x%02x", op);
-        error(std::string("unknown opcode ") + hex + " (corrupt file?)");
-      }
+    if (op == '.') {  // STOP
+      if (stack_.size() != 1 || !marks_.empty()) error("STOP with " + std::to_string(stack_.size()) + " objects on the stack");
+      if (!pending_arrays_.empty()) error("numpy array never received its data (missing BUILD)");
+      out_.root_ = stack_.back();
+      return std::move(out_);
+    }
+    if (!stack_op(op) && !push_constant_op(op) && !container_op(op) && !memo_op(op) && !object_op(op)) refuse_op(op);
+  }
+}
+
+bool PickleParser::stack_op(uint8_t op) {
+  switch (op) {
+    case 0x80: {  // PROTO
+      const uint8_t v = u8();
+      if (v > 5) error("unsupported pickle protocol " + std::to_string(v));
+      return true;
+    }
+    case 0x95: uint_le(8); return true;  // FRAME: the whole input is in memory already
+    case '(': marks_.push_back(stack_.size()); return true;  // MARK
+    case '0': pop(); return true;                            // POP
+    case '1': pop_mark(); return true;                       // POP_MARK
+    case '2': push(top()); return true;                      // DUP
+    default: return false;
+  }
+}
+
+bool PickleParser::push_constant_op(uint8_t op) {
+  switch (op) {
+    case 'N': push(make(PyKind::none)); return true;
+    case 0x88: { PyObj* o = make(PyKind::boolean); o->b = true; push(o); return true; }   // NEWTRUE
+    case 0x89: { PyObj* o = make(PyKind::boolean); o->b = false; push(o); return true; }  // NEWFALSE
+    case 'J': push(make_int(int32_t(uint32_t(uint_le(4))))); return true;  // BININT
+    case 'K': push(make_int(int64_t(uint_le(1)))); return true;            // BININT1
+    case 'M': push(make_int(int64_t(uint_le(2)))); return true;            // BININT2
+    case 0x8a: { const uint64_t len = uint_le(1); push(make_int(long_from_bytes(raw(len)))); return true; }  // LONG1
+    case 0x8b: {  // LONG4
+      const uint64_t len = uint_le(4);
+      if (len > 64) error("integer does not fit in 64 bits");
+      push(make_int(long_from_bytes(raw(len))));
+      return true;
+    }
+    case 'I': {  // INT (text): also the protocol-0 spelling of True/False
+      const std::string s = line();
+      if (s == "01" || s == "00") { PyObj* o = make(PyKind::boolean); o->b = s == "01"; push(o); return true; }
+      char* end = nullptr;
+      errno = 0;
+      const long long v = std::strtoll(s.c_str(), &end, 10);
+      if (s.empty() || *end || errno) error("bad INT argument '" + s + "'");
+      push(make_int(v));
+      return true;
+    }
+    case 'L': {  // LONG (text)
+      std::string s = line();
+      if (!s.empty() && s.back() == 'L') s.pop_back();
+      char* end = nullptr;
+      errno = 0;
+      const long long v = std::strtoll(s.c_str(), &end, 10);
+      if (s.empty() || *end || errno) error("bad LONG argument (or beyond 64 bits)");
+      push(make_int(v));
+      return true;
+    }
+    case 'G': {  // BINFLOAT: big-endian double
+      need(8);
+      uint64_t u = 0;
+      for (int k = 0; k < 8; ++k) u = (u << 8) | p_[pos_ + size_t(k)];
+      pos_ += 8;
+      PyObj* o = make(PyKind::floating);
+      std::memcpy(&o->f, &u, 8);
+      push(o);
+      return true;
+    }
+    case 'F': {  // FLOAT (text)
+      const std::string s = line();
+      char* end = nullptr;
+      const double v = std::strtod(s.c_str(), &end);
+      if (s.empty() || *end) error("bad FLOAT argument '" + s + "'");
+      PyObj* o = make(PyKind::floating);
+      o->f = v;
+      push(o);
+      return true;
+    }
+    case 'X': push(make_text(PyKind::string, raw(uint_le(4)))); return true;     // BINUNICODE
+    case 0x8c: push(make_text(PyKind::string, raw(uint_le(1)))); return true;   // SHORT_BINUNICODE
+    case 0x8d: push(make_text(PyKind::string, raw(uint_le(8)))); return true;   // BINUNICODE8
+    case 'T': push(make_text(PyKind::bytes, raw(uint_le(4)))); return true;     // BINSTRING (py2 str)
+    case 'U': push(make_text(PyKind::bytes, raw(uint_le(1)))); return true;     // SHORT_BINSTRING
+    case 'B': push(make_text(PyKind::bytes, raw(uint_le(4)))); return true;     // BINBYTES
+    case 'C': push(make_text(PyKind::bytes, raw(uint_le(1)))); return true;     // SHORT_BINBYTES
+    case 0x8e: push(make_text(PyKind::bytes, raw(uint_le(8)))); return true;    // BINBYTES8
+    case 0x96: push(make_text(PyKind::bytes, raw(uint_le(8)))); return true;    // BYTEARRAY8
+    case 0x98: top(); return true;  // READONLY_BUFFER: in-band data is already a plain copy
+    default: return false;
+  }
+}
+
+bool PickleParser::container_op(uint8_t op) {
+  switch (op) {
+    case ')': push(make(PyKind::tuple)); return true;  // EMPTY_TUPLE
+    case 0x85: { PyObj* a = pop(); push(make_tuple({a})); return true; }                        // TUPLE1
+    case 0x86: { PyObj* b = pop(); PyObj* a = pop(); push(make_tuple({a, b})); return true; }  // TUPLE2
+    case 0x87: {                                                                                // TUPLE3
+      PyObj* c = pop(); PyObj* b = pop(); PyObj* a = pop();
+      push(make_tuple({a, b, c}));
+      return true;
+    }
+    case 't': push(make_tuple(pop_mark())); return true;  // TUPLE
+    case ']': push(make(PyKind::list)); return true;      // EMPTY_LIST
+    case 'l': {                                           // LIST
+      PyObj* o = make(PyKind::list);
+      auto items = pop_mark();
+      o->items.assign(items.begin(), items.end());
+      push(o);
+      return true;
+    }
+    case 'a': {  // APPEND
+      PyObj* v = pop();
+      PyObj* l = top();
+      if (l->kind != PyKind::list) error(std::string("APPEND to a ") + py_kind_name(l->kind));
+      l->items.push_back(v);
+      return true;
+    }
+    case 'e': {  // APPENDS
+      auto items = pop_mark();
+      PyObj* l = top();
+      if (l->kind != PyKind::list) error(std::string("APPENDS to a ") + py_kind_name(l->kind));
+      l->items.insert(l->items.end(), items.begin(), items.end());
+      return true;
+    }
+    case '}': push(make(PyKind::dict)); return true;  // EMPTY_DICT
+    case 'd': {                                       // DICT
+      PyObj* d = make(PyKind::dict);
+      set_items(d, pop_mark());
+      push(d);
+      return true;
+    }
+    case 's': {  // SETITEM
+      PyObj* v = pop();
+      PyObj* k = pop();
+      set_items(top(), {k, v});
+      return true;
+    }
+    case 'u': {  // SETITEMS
+      auto kv = pop_mark();
+      set_items(top(), kv);
+      return true;
+    }
+    case 0x8f: push(make(PyKind::set)); return true;  // EMPTY_SET
+    case 0x90: {                                      // ADDITEMS
+      auto items = pop_mark();
+      PyObj* s = top();
+      if (s->kind != PyKind::set || frozen_.count(s)) error("ADDITEMS to something other than a set");
+      s->items.insert(s->items.end(), items.begin(), items.end());
+      return true;
+    }
+    case 0x91: {  // FROZENSET
+      PyObj* s = make(PyKind::set);
+      auto items = pop_mark();
+      s->items.assign(items.begin(), items.end());
+      frozen_[s] = true;
+      push(s);
+      return true;
+    }
+    default: return false;
+  }
+}
+
+bool PickleParser::memo_op(uint8_t op) {
+  switch (op) {
+    case 'p': {  // PUT (text)
+      const std::string s = line();
+      char* end = nullptr;
+      const unsigned long long idx = std::strtoull(s.c_str(), &end, 10);
+      if (s.empty() || *end) error("bad PUT argument");
+      memo_put(idx, top());
+      return true;
+    }
+    case 'g': {  // GET (text)
+      const std::string s = line();
+      char* end = nullptr;
+      const unsigned long long idx = std::strtoull(s.c_str(), &end, 10);
+      if (s.empty() || *end) error("bad GET argument");
+      push(memo_get(idx));
+      return true;
+    }
+    case 'q': memo_put(uint_le(1), top()); return true;     // BINPUT
+    case 'r': memo_put(uint_le(4), top()); return true;     // LONG_BINPUT
+    case 0x94: memo_put(memo_.size(), top()); return true;  // MEMOIZE
+    case 'h': push(memo_get(uint_le(1))); return true;      // BINGET
+    case 'j': push(memo_get(uint_le(4))); return true;      // LONG_BINGET
+    default: return false;
+  }
+}
+
+bool PickleParser::object_op(uint8_t op) {
+  switch (op) {
+    case 'c': {  // GLOBAL "module\nname\n"
+      const std::string module = line();
+      const std::string name = line();
+      resolve_global(module, name);
+      return true;
+    }
+    case 0x93: {  // STACK_GLOBAL
+      PyObj* name = pop();
+      PyObj* module = pop();
+      if (module->kind != PyKind::string || name->kind != PyKind::string) error("STACK_GLOBAL on non-strings");
+      resolve_global(module->str, name->str);
+      return true;
+    }
+    case 'R': reduce(); return true;
+    case 'b': build(); return true;
+    default: return false;
+  }
+}
+
+void PickleParser::refuse_op(uint8_t op) {
+  switch (op) {
+    case 0x97: error("out-of-band buffer (NEXT_BUFFER) is not supported");
+    case 0x81:  // NEWOBJ
+    case 0x92:  // NEWOBJ_EX
+      error("object construction (NEWOBJ) is not allowed");
+    case 'i': case 'o':
+      error("object construction (INST/OBJ) is not allowed");
+    case 'P': case 'Q':
+      error("persistent ids are not supported (torch tensors? save numpy arrays instead)");
+    case 0x82: case 0x83: case 0x84:
+      error("extension registry codes are not supported");
+    case 'S': case 'V':
+      error("protocol-0 text strings are not supported (re-save with protocol 2 or higher)");
+    default: {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02x", op);
+      error(std::string("unknown opcode ") + hex + " (corrupt file?)");
     }
   }
 }
