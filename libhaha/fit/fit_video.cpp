@@ -165,15 +165,10 @@ std::string seconds(double s) {
   return b;
 }
 
-}  // namespace
-
-FitVideoResult fit_video(const BodyModel& body, const std::vector<FitVideoInputFrame>& frames,
-                         const FitVideoOptions& opt) {
-  check_input(frames);
-  const int W = frames[0].keypoints.width, H = frames[0].keypoints.height;
-  FitVideoResult out;
-  out.camera = make_camera(W, H, opt);
-  const std::vector<FitVideoPoint> points = fit_video_points(body);
+// Frame selection, with each input frame's line of the report (dropped or not); throws when
+// no frame is left.
+FitVideoSelection select_frames(const std::vector<FitVideoInputFrame>& frames, const std::vector<FitVideoPoint>& points,
+                                const FitVideoOptions& opt, FitVideoResult& out) {
   if (!(opt.frame_interval_s > 0) || !std::isfinite(opt.frame_interval_s))
     fail("video fit", "the time between frames must be > 0 seconds");
   FitVideoSelection sel = select_video_frames(frames, points, opt);
@@ -190,145 +185,140 @@ FitVideoResult fit_video(const BodyModel& body, const std::vector<FitVideoInputF
     fail("video fit", "no frame with a person to fit (" + std::to_string(frames.size()) + " frames; the first: " + why + ")");
   }
   out.kept = sel.kept;
-  const int N = int(sel.kept.size());
   if (opt.progress)
-    std::printf("video fit: %d of %zu frames kept, focal %.1f px, %zu keypoints per frame\n", N, frames.size(),
-                double(out.camera.fx), points.size());
+    std::printf("video fit: %d of %zu frames kept, focal %.1f px, %zu keypoints per frame\n", int(sel.kept.size()),
+                frames.size(), double(out.camera.fx), points.size());
+  return sel;
+}
 
-  FitVideoObjective<float> obj(body, points, out.camera, opt.num_betas, opt.weights);
-  const int nb = obj.num_betas();
-  std::vector<float> params(size_t(obj.num_params(N)), 0.0f), grad(params.size());
+// Initialisation (rest body, betas 0) under the first stage's weights.
+void initialise_frames(const BodyModel& body, const std::vector<FitVideoPoint>& points,
+                       const std::vector<FitVideoInputFrame>& frames, const FitVideoSelection& sel, const Camera& camera,
+                       const std::vector<double>& torso_w, const FitVideoOptions& opt, std::vector<float>& params) {
+  FitVideoObjective<float> init_obj(body, points, camera, 0, opt.weights);  // betas 0
+  init_obj.set_point_weights(torso_w);
+  std::vector<float> rest_v(size_t(body.num_verts) * 3), rest_j(size_t(kNumJoints) * 3);
+  Lbs<float>(body).forward(SmplxParams{}, rest_v.data(), rest_j.data(), nullptr);
+  for (int f = 0; f < int(sel.kept.size()); ++f)
+    initialise_frame(body, init_obj, sel.targets[size_t(f)], frames[size_t(sel.kept[size_t(f)])].keypoints, camera,
+                     rest_j, opt.min_visibility, params.data() + size_t(f) * kFitVideoFrameParams);
+}
 
-  // Initialisation (rest body, betas 0) under the first stage's weights.
-  std::vector<double> torso_w, all_w;
-  for (const FitVideoPoint& p : points) {
-    all_w.push_back(p.weight);
-    torso_w.push_back(p.torso ? p.weight : 0.0);
-  }
-  {
-    FitVideoObjective<float> init_obj(body, points, out.camera, 0, opt.weights);  // betas 0
-    init_obj.set_point_weights(torso_w);
-    std::vector<float> rest_v(size_t(body.num_verts) * 3), rest_j(size_t(kNumJoints) * 3);
-    Lbs<float>(body).forward(SmplxParams{}, rest_v.data(), rest_j.data(), nullptr);
-    for (int f = 0; f < N; ++f)
-      initialise_frame(body, init_obj, sel.targets[size_t(f)], frames[size_t(sel.kept[size_t(f)])].keypoints,
-                       out.camera, rest_j, opt.min_visibility, params.data() + size_t(f) * kFitVideoFrameParams);
-  }
-
-  // Silhouette frames (kept frames with a mask).
-  std::vector<SilhouetteFrame> sil(static_cast<size_t>(N));
-  bool any_mask = false;
-  for (int f = 0; f < N; ++f) {
-    const Image& m = frames[size_t(sel.kept[size_t(f)])].mask;
+// Silhouette frames (kept frames with a mask; the others stay empty).
+std::vector<SilhouetteFrame> silhouette_frames(const std::vector<FitVideoInputFrame>& frames, const std::vector<int>& kept,
+                                               const Camera& camera, const FitVideoOptions& opt, bool& any_mask) {
+  std::vector<SilhouetteFrame> sil(kept.size());
+  any_mask = false;
+  for (size_t f = 0; f < kept.size(); ++f) {
+    const Image& m = frames[size_t(kept[f])].mask;
     if (m.empty()) continue;
-    sil[size_t(f)] = shrink(m, out.camera, opt.silhouette_size);
+    sil[f] = shrink(m, camera, opt.silhouette_size);
     any_mask = true;
   }
-  BodySilhouette silhouette(body);
-  std::vector<float> d_image;
-  const FitVideoObjective<float>::Extra silhouette_term = [&](int f, const float* verts, float* d_verts) -> float {
-    const SilhouetteFrame& s = sil[size_t(f)];
-    if (s.mask.empty()) return 0.0f;
-    const int P = s.camera.width * s.camera.height;
-    d_image.resize(3 * size_t(P));
-    const std::vector<float>& img = silhouette.render(s.camera, verts);
-    const double w = opt.w_silhouette / N;
-    const double l = silhouette_mismatch(img.data(), s.mask.data(), P, opt.silhouette_outside, opt.silhouette_inside,
-                                         d_image.data());
-    if (d_verts) {
-      for (float& g : d_image) g *= float(w);
-      silhouette.backward(d_image.data(), d_verts);
-    }
-    return float(w * l);
-  };
+  return sil;
+}
 
-  // Parameter groups.
+struct StageGroups {
   StageGroup orient, pose, transl, betas;
+};
+
+StageGroups stage_groups(int N, int nb, const FitVideoOptions& opt) {
+  StageGroups g;
   for (int f = 0; f < N; ++f) {
     const size_t b = size_t(f) * kFitVideoFrameParams;
-    for (int k = 0; k < 3; ++k) orient.idx.push_back(b + size_t(k));
-    for (int k = 3; k < kFitVideoPoseValues; ++k) pose.idx.push_back(b + size_t(k));
-    for (int k = 0; k < 3; ++k) transl.idx.push_back(b + size_t(kFitVideoPoseValues + k));
+    for (int k = 0; k < 3; ++k) g.orient.idx.push_back(b + size_t(k));
+    for (int k = 3; k < kFitVideoPoseValues; ++k) g.pose.idx.push_back(b + size_t(k));
+    for (int k = 0; k < 3; ++k) g.transl.idx.push_back(b + size_t(kFitVideoPoseValues + k));
   }
-  for (int k = 0; k < nb; ++k) betas.idx.push_back(size_t(N) * kFitVideoFrameParams + size_t(k));
-  orient.lr = opt.lr_orient, pose.lr = opt.lr_body, transl.lr = opt.lr_transl, betas.lr = opt.lr_betas;
+  for (int k = 0; k < nb; ++k) g.betas.idx.push_back(size_t(N) * kFitVideoFrameParams + size_t(k));
+  g.orient.lr = opt.lr_orient, g.pose.lr = opt.lr_body, g.transl.lr = opt.lr_transl, g.betas.lr = opt.lr_betas;
+  return g;
+}
 
-  const int stages = any_mask ? 3 : 2;
-  auto run_stage = [&](int stage, const char* name, int iters, std::vector<StageGroup*> groups,
-                       const FitVideoObjective<float>::Extra& extra) {
-    if (iters <= 0) return;
-    Adam adam;
-    std::vector<int> ids;
-    std::vector<LogLinearLr> sched;
+// What the stages of one fit share.
+struct StageRun {
+  const FitVideoObjective<float>& obj;
+  const std::vector<FitVideoTargets>& targets;
+  std::vector<float>& params;
+  std::vector<float>& grad;
+  const FitVideoOptions& opt;
+  int stages;
+};
+
+void run_stage(const StageRun& r, int stage, const char* name, int iters, std::vector<StageGroup*> groups,
+               const FitVideoObjective<float>::Extra& extra) {
+  if (iters <= 0) return;
+  const FitVideoOptions& opt = r.opt;
+  std::vector<float>& params = r.params;
+  std::vector<float>& grad = r.grad;
+  Adam adam;
+  std::vector<int> ids;
+  std::vector<LogLinearLr> sched;
+  for (StageGroup* g : groups) {
+    if (g->idx.empty()) continue;
+    ids.push_back(adam.add_group(name + std::to_string(ids.size()), int64_t(g->idx.size()), g->lr));
+    LogLinearLr s;
+    s.lr_init = g->lr;
+    s.lr_final = g->lr * opt.lr_final_factor;
+    s.max_steps = iters;
+    sched.push_back(s);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const int every = std::max(1, iters / 6);
+  for (int it = 0; it <= iters; ++it) {
+    check_interrupted();
+    FitVideoTerms terms;
+    r.obj.evaluate(r.targets, params.data(), it < iters ? grad.data() : nullptr, extra, &terms);
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (opt.progress && (it % every == 0 || it == iters))
+      std::printf("video fit: stage %d/%d (%s), iteration %d/%d, loss %.4e (keypoints %.3e, world %.2e, prior %.2e, smooth %.2e%s), "
+                  "%s, ETA %s\n",
+                  stage, r.stages, name, it, iters, terms.total(), terms.keypoints, terms.world, terms.prior, terms.smooth,
+                  extra ? (", silhouette " + std::to_string(terms.extra).substr(0, 8)).c_str() : "", seconds(el).c_str(),
+                  seconds(it > 0 ? el / it * (iters - it) : 0).c_str());
+    if (it == iters) break;
+    size_t gi = 0;
     for (StageGroup* g : groups) {
       if (g->idx.empty()) continue;
-      ids.push_back(adam.add_group(name + std::to_string(ids.size()), int64_t(g->idx.size()), g->lr));
-      LogLinearLr s;
-      s.lr_init = g->lr;
-      s.lr_final = g->lr * opt.lr_final_factor;
-      s.max_steps = iters;
-      sched.push_back(s);
-    }
-    const auto t0 = std::chrono::steady_clock::now();
-    const int every = std::max(1, iters / 6);
-    for (int it = 0; it <= iters; ++it) {
-      check_interrupted();
-      FitVideoTerms terms;
-      obj.evaluate(sel.targets, params.data(), it < iters ? grad.data() : nullptr, extra, &terms);
-      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (opt.progress && (it % every == 0 || it == iters))
-        std::printf("video fit: stage %d/%d (%s), iteration %d/%d, loss %.4e (keypoints %.3e, world %.2e, prior %.2e, smooth %.2e%s), "
-                    "%s, ETA %s\n",
-                    stage, stages, name, it, iters, terms.total(), terms.keypoints, terms.world, terms.prior, terms.smooth,
-                    extra ? (", silhouette " + std::to_string(terms.extra).substr(0, 8)).c_str() : "", seconds(el).c_str(),
-                    seconds(it > 0 ? el / it * (iters - it) : 0).c_str());
-      if (it == iters) break;
-      size_t gi = 0;
-      for (StageGroup* g : groups) {
-        if (g->idx.empty()) continue;
-        g->p.resize(g->idx.size());
-        g->d.resize(g->idx.size());
-        for (size_t i = 0; i < g->idx.size(); ++i) {
-          g->p[i] = params[g->idx[i]];
-          g->d[i] = std::isfinite(grad[g->idx[i]]) ? grad[g->idx[i]] : 0.0f;  // never step into NaN
-        }
-        adam.set_lr(ids[gi], sched[gi](it));
-        adam.step(ids[gi], g->p.data(), g->d.data());
-        for (size_t i = 0; i < g->idx.size(); ++i) params[g->idx[i]] = g->p[i];
-        ++gi;
+      g->p.resize(g->idx.size());
+      g->d.resize(g->idx.size());
+      for (size_t i = 0; i < g->idx.size(); ++i) {
+        g->p[i] = params[g->idx[i]];
+        g->d[i] = std::isfinite(grad[g->idx[i]]) ? grad[g->idx[i]] : 0.0f;  // never step into NaN
       }
+      adam.set_lr(ids[gi], sched[gi](it));
+      adam.step(ids[gi], g->p.data(), g->d.data());
+      for (size_t i = 0; i < g->idx.size(); ++i) params[g->idx[i]] = g->p[i];
+      ++gi;
     }
-    std::fflush(stdout);
-  };
+  }
+  std::fflush(stdout);
+}
 
-  // Face points seen from behind (fit/fit_video_facing.h): their visibility scaled by the
-  // current fit's facing before each stage.
-  std::vector<std::vector<double>> vis0;
-  for (const FitVideoTargets& t : sel.targets) vis0.push_back(t.vis);
-  auto fade_hidden_face = [&] {
-    if (!opt.fade_hidden_face) return;
-    const float* shared = params.data() + size_t(N) * kFitVideoFrameParams;
-    for (int f = 0; f < N; ++f) {
-      std::vector<Vec3d> cp;
-      for (const Vec3<float>& p : obj.camera_points(params.data() + size_t(f) * kFitVideoFrameParams, shared))
-        cp.emplace_back(p.x, p.y, p.z);
-      const std::vector<double> w = face_point_factors(points, cp);
-      for (size_t k = 0; k < w.size(); ++k) sel.targets[size_t(f)].vis[k] = vis0[size_t(f)][k] * w[k];
-    }
-  };
+// Face points seen from behind (fit/fit_video_facing.h): their visibility (vis0: as
+// selected) scaled by the current fit's facing before each stage.
+void fade_hidden_face(const FitVideoObjective<float>& obj, const std::vector<FitVideoPoint>& points,
+                      const std::vector<std::vector<double>>& vis0, const std::vector<float>& params, int N,
+                      const FitVideoOptions& opt, std::vector<FitVideoTargets>& targets) {
+  if (!opt.fade_hidden_face) return;
+  const float* shared = params.data() + size_t(N) * kFitVideoFrameParams;
+  for (int f = 0; f < N; ++f) {
+    std::vector<Vec3d> cp;
+    for (const Vec3<float>& p : obj.camera_points(params.data() + size_t(f) * kFitVideoFrameParams, shared))
+      cp.emplace_back(p.x, p.y, p.z);
+    const std::vector<double> w = face_point_factors(points, cp);
+    for (size_t k = 0; k < w.size(); ++k) targets[size_t(f)].vis[k] = vis0[size_t(f)][k] * w[k];
+  }
+}
 
-  obj.set_point_weights(torso_w);
-  unwrap_orients(sel.targets, params.data());
-  fade_hidden_face();
-  run_stage(1, "global", opt.iters_global, {&orient, &transl}, {});
-  obj.set_point_weights(all_w);
-  unwrap_orients(sel.targets, params.data());
-  fade_hidden_face();
-  run_stage(2, "body", opt.iters_body, {&orient, &pose, &transl, &betas}, {});
-  fade_hidden_face();
-  if (any_mask) run_stage(3, "silhouette", opt.iters_silhouette, {&orient, &pose, &transl, &betas}, silhouette_term);
-
-  // Results and the report.
+// Results and the report: each kept frame's parameters (orient angle back in [0, pi]), its
+// keypoint reprojection error and, with a mask, its silhouette IoU.
+void collect_results(const BodyModel& body, const std::vector<FitVideoInputFrame>& frames, const FitVideoSelection& sel,
+                     const FitVideoObjective<float>& obj, int nb, BodySilhouette& silhouette,
+                     std::vector<float>& params, FitVideoResult& out) {
+  const int N = int(sel.kept.size());
+  const int W = frames[0].keypoints.width, H = frames[0].keypoints.height;
+  const std::vector<FitVideoPoint>& points = obj.points();
   const float* shared = params.data() + size_t(N) * kFitVideoFrameParams;
   Lbs<float> lbs(body);
   std::vector<float> verts(size_t(body.num_verts) * 3), u, v;
@@ -361,15 +351,80 @@ FitVideoResult fit_video(const BodyModel& body, const std::vector<FitVideoInputF
       r.silhouette_iou = uni > 0 ? inter / uni : NAN;
     }
   }
-  if (opt.progress) {
-    double rp = 0;
-    int n = 0;
-    for (int f = 0; f < N; ++f) {
-      const double e = out.report[size_t(sel.kept[size_t(f)])].reprojection_px;
-      if (std::isfinite(e)) rp += e, ++n;
-    }
-    std::printf("video fit: done, mean keypoint reprojection %.2f px over %d frames\n", n ? rp / n : NAN, n);
+}
+
+void print_summary(const FitVideoResult& out) {
+  double rp = 0;
+  int n = 0;
+  for (int i : out.kept) {
+    const double e = out.report[size_t(i)].reprojection_px;
+    if (std::isfinite(e)) rp += e, ++n;
   }
+  std::printf("video fit: done, mean keypoint reprojection %.2f px over %d frames\n", n ? rp / n : NAN, n);
+}
+
+}  // namespace
+
+FitVideoResult fit_video(const BodyModel& body, const std::vector<FitVideoInputFrame>& frames,
+                         const FitVideoOptions& opt) {
+  check_input(frames);
+  const int W = frames[0].keypoints.width, H = frames[0].keypoints.height;
+  FitVideoResult out;
+  out.camera = make_camera(W, H, opt);
+  const std::vector<FitVideoPoint> points = fit_video_points(body);
+  FitVideoSelection sel = select_frames(frames, points, opt, out);
+  const int N = int(sel.kept.size());
+
+  FitVideoObjective<float> obj(body, points, out.camera, opt.num_betas, opt.weights);
+  const int nb = obj.num_betas();
+  std::vector<float> params(size_t(obj.num_params(N)), 0.0f), grad(params.size());
+
+  std::vector<double> torso_w, all_w;
+  for (const FitVideoPoint& p : points) {
+    all_w.push_back(p.weight);
+    torso_w.push_back(p.torso ? p.weight : 0.0);
+  }
+  initialise_frames(body, points, frames, sel, out.camera, torso_w, opt, params);
+
+  bool any_mask = false;
+  const std::vector<SilhouetteFrame> sil = silhouette_frames(frames, sel.kept, out.camera, opt, any_mask);
+  BodySilhouette silhouette(body);
+  std::vector<float> d_image;
+  const FitVideoObjective<float>::Extra silhouette_term = [&](int f, const float* verts, float* d_verts) -> float {
+    const SilhouetteFrame& s = sil[size_t(f)];
+    if (s.mask.empty()) return 0.0f;
+    const int P = s.camera.width * s.camera.height;
+    d_image.resize(3 * size_t(P));
+    const std::vector<float>& img = silhouette.render(s.camera, verts);
+    const double w = opt.w_silhouette / N;
+    const double l = silhouette_mismatch(img.data(), s.mask.data(), P, opt.silhouette_outside, opt.silhouette_inside,
+                                         d_image.data());
+    if (d_verts) {
+      for (float& g : d_image) g *= float(w);
+      silhouette.backward(d_image.data(), d_verts);
+    }
+    return float(w * l);
+  };
+
+  StageGroups g = stage_groups(N, nb, opt);
+  const StageRun run{obj, sel.targets, params, grad, opt, any_mask ? 3 : 2};
+  std::vector<std::vector<double>> vis0;
+  for (const FitVideoTargets& t : sel.targets) vis0.push_back(t.vis);
+  auto fade = [&] { fade_hidden_face(obj, points, vis0, params, N, opt, sel.targets); };
+
+  obj.set_point_weights(torso_w);
+  unwrap_orients(sel.targets, params.data());
+  fade();
+  run_stage(run, 1, "global", opt.iters_global, {&g.orient, &g.transl}, {});
+  obj.set_point_weights(all_w);
+  unwrap_orients(sel.targets, params.data());
+  fade();
+  run_stage(run, 2, "body", opt.iters_body, {&g.orient, &g.pose, &g.transl, &g.betas}, {});
+  fade();
+  if (any_mask) run_stage(run, 3, "silhouette", opt.iters_silhouette, {&g.orient, &g.pose, &g.transl, &g.betas}, silhouette_term);
+
+  collect_results(body, frames, sel, obj, nb, silhouette, params, out);
+  if (opt.progress) print_summary(out);
   return out;
 }
 
