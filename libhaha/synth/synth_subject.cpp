@@ -153,174 +153,195 @@ static V3 gingham(const Palette& P, double a, double b, double period) {
   return k == 0 ? white : (k == 1 ? mix(white, P.shirt, 0.5) : P.shirt);
 }
 
+namespace {
+
+// Shade of each skinning group at a rest-surface point p with unit normal n; `left`: the
+// subject's left (+X), `skin`: the skin colour with its noise.
+
+V3 trousers_colour(const Palette& P, V3 p) { return (0.92 + 0.16 * value_noise(p, 0.015, P.noise_seed + 1)) * P.trousers; }
+
+V3 eye_colour(const Anatomy& A, const Palette& P, V3 p, bool left) {
+  const V3 q = unit(p - (left ? A.J[kLeftEye] : A.J[kRightEye]));
+  return q.z > std::cos(0.20) ? V3(0.04, 0.04, 0.05) : (q.z > std::cos(0.45) ? P.iris : V3(0.95, 0.95, 0.92));
+}
+
+V3 hair_colour(const Anatomy& A, const Palette& P, V3 p) {
+  const double phi = head_azimuth(A, p);
+  const double streak = 0.5 + 0.5 * std::sin(55 * phi + 6 * std::sin(23 * p.y));
+  return (0.72 + 0.4 * streak) * P.hair;
+}
+
+// Face features in units of the eye distance, relative to the eyes' midpoint.
+V3 face_colour(const Anatomy& A, const Palette& P, V3 p, V3 skin) {
+  const double d = A.d;
+  V3 c = skin;
+  const double xs = (p.x - A.eye_mid.x) / d, ys = (p.y - A.eye_mid.y) / d;
+  const double ax = std::abs(xs);
+  const double blush = 0.22 * std::exp(-((ax - 0.72) * (ax - 0.72) + (ys + 0.5) * (ys + 0.5)) / (2 * 0.18 * 0.18));
+  c = mix(c, V3(0.90, 0.45, 0.45), blush);
+  const double ex = ax - 0.5;
+  const double ell = (ex / 0.27) * (ex / 0.27) + (ys / 0.125) * (ys / 0.125);
+  if (ell <= 1) {
+    const double r = std::hypot(ex, ys);
+    c = r < 0.05 ? V3(0.04, 0.04, 0.05) : (r < 0.11 ? (r > 0.09 ? 0.6 * P.iris : P.iris) : V3(0.95, 0.95, 0.92));
+  } else if (ell < 1.45 && ys > -0.03) {
+    c = V3(0.08, 0.06, 0.06);  // lash line
+  }
+  if (ax > 0.15 && ax < 0.85) {
+    const double u = (ax - 0.48) / 0.37;
+    const double yb = 0.34 + 0.07 * (1 - u * u);
+    if (std::abs(ys - yb) < 0.045 * (1.2 - 0.5 * smoothstep(0.3, 0.85, ax))) c = 0.8 * P.hair + V3(0.02, 0.02, 0.02);
+  }
+  const double nx = ax - 0.11;
+  if ((nx / 0.055) * (nx / 0.055) + ((ys + 0.64) / 0.03) * ((ys + 0.64) / 0.03) < 1) c = 0.45 * skin;
+  const double ly = ys + 1.0, lh = ly > 0 ? 0.10 : 0.13;
+  if ((xs / 0.36) * (xs / 0.36) + (ly / lh) * (ly / lh) < 1) c = P.lips;
+  if (std::abs(ly) < 0.018 && ax < 0.33) c = V3(0.30, 0.08, 0.08);
+  return c;
+}
+
+V3 head_colour(const Anatomy& A, const Palette& P, V3 p, V3 n, bool neck, V3 skin) {
+  if (hair_depth(A, p) > 0) return hair_colour(A, P, p);
+  if (neck || p.z < A.eye_mid.z - 0.03 || n.z < 0.1) return skin;
+  return face_colour(A, P, p, skin);
+}
+
+// Gingham shirt with a chest emblem (front, subject's left) and "HAHA" on the back:
+// front/back and left/right become distinguishable while turning.
+V3 shirt_colour(const Anatomy& A, const Palette& P, V3 p, V3 n) {
+  const V3* J = A.J;
+  const V3 ctr = J[6];
+  const double arc = 0.16 * std::atan2(p.x - ctr.x, p.z - ctr.z);
+  V3 c = gingham(P, arc, p.y, 0.032);
+  const V3 em(J[9].x + 0.075, J[9].y + 0.02, 0);
+  if (n.z > 0.45 && std::hypot(p.x - em.x, p.y - em.y) < 0.032)
+    c = std::hypot(p.x - em.x, p.y - em.y) < 0.014 ? P.shirt : P.accent;
+  if (n.z < -0.45) {
+    const std::string text = "HAHA";
+    const double px = 0.0105, cols = double(text.size()) * kFontAdvance - 1;
+    const double x0 = J[6].x + 0.5 * cols * px, y0 = J[9].y + 0.03;
+    const int col = int(std::floor((x0 - p.x) / px)), row = int(std::floor((y0 - p.y) / px));
+    if (col >= 0 && col < int(cols) && row >= 0 && row < kFontHeight &&
+        font_pixel(text[size_t(col / kFontAdvance)], col % kFontAdvance, row))
+      c = P.accent;
+  }
+  return c;
+}
+
+V3 torso_colour(const Anatomy& A, const Palette& P, V3 p, V3 n, V3 skin) {
+  // Crew neck: above a plane tilted down toward the front, near the neck axis (the
+  // shoulder tops, further out, stay shirt).
+  const V3 nk = A.J[kNeckJoint];
+  const double front = smoothstep(-0.02, 0.05, p.z - nk.z);
+  const double y_collar = nk.y - 0.025 - 0.04 * front;
+  const double r_neck = std::hypot(p.x - nk.x, p.z - nk.z);
+  if (p.y > y_collar && r_neck < 0.11) return skin;
+  if (p.y > y_collar - 0.012 && r_neck < 0.12) return P.shirt;  // collar band
+  if (p.y > A.waist_y) return shirt_colour(A, P, p, n);
+  if (p.y > A.waist_y - 0.025) {
+    const bool buckle = n.z > 0.6 && std::abs(p.x - A.J[0].x) < 0.022;
+    return buckle ? V3(0.85, 0.70, 0.30) : V3(0.25, 0.15, 0.08);  // belt
+  }
+  return trousers_colour(P, p);
+}
+
+V3 leg_colour(const Anatomy& A, const Palette& P, V3 p, bool left) {
+  const V3* J = A.J;
+  const int hip = left ? 1 : 2, knee = left ? 4 : 5, ankle = left ? 7 : 8;
+  if (p.y < J[ankle].y + 0.012) return P.shoe;
+  V3 c = trousers_colour(P, p);
+  // Stripe down the outer side: axis point at this height between hip, knee, ankle.
+  const V3 a0 = p.y > J[knee].y ? J[hip] : J[knee], a1 = p.y > J[knee].y ? J[knee] : J[ankle];
+  const double t = clamp((p.y - a0.y) / (a1.y - a0.y), 0.0, 1.0);
+  const V3 ax = mix(a0, a1, t);
+  const double ang = std::atan2(p.z - ax.z, (p.x - ax.x) * (left ? 1 : -1));
+  if (std::abs(ang) < 0.16) c = std::abs(ang) < 0.05 ? P.accent : V3(0.92, 0.92, 0.92);
+  return c;
+}
+
+V3 foot_colour(const Anatomy& A, const Palette& P, V3 p, V3 n, bool left) {
+  const V3 ankle = A.J[left ? 7 : 8];
+  if (p.y < A.floor_y + 0.018) return V3(0.35, 0.33, 0.32);  // sole
+  if (std::abs(n.x) > 0.6 && p.y > A.floor_y + 0.028 && p.y < A.floor_y + 0.042) return P.accent;
+  if (n.y > 0.5) {
+    const double fz = p.z - ankle.z;
+    if (fz > 0.03 && fz < 0.11 && std::abs(p.x - ankle.x) < 0.018) {
+      const double f = fz / 0.012 - std::floor(fz / 0.012);
+      if (f < 0.45) return V3(0.97, 0.97, 0.97);  // laces
+    }
+  }
+  return P.shoe;
+}
+
+V3 arm_colour(const Anatomy& A, const Palette& P, V3 p, bool left, V3 skin) {
+  const V3* J = A.J;
+  const int sh = left ? 16 : 17, el = left ? 18 : 19;
+  const V3 axis = unit(J[el] - J[sh]);
+  const double len = norm(J[el] - J[sh]);
+  const V3 q = p - J[sh];
+  const double along = dot(q, axis);
+  if (along < 0.45 * len) {
+    if (along > 0.38 * len) return P.shirt;  // cuff
+    const V3 up(0, 1, 0);
+    const V3 e1 = unit(up - dot(up, axis) * axis), e2 = cross(axis, e1);
+    return gingham(P, along, 0.045 * std::atan2(dot(q, e2), dot(q, e1)), 0.032);
+  }
+  return skin;
+}
+
+// Nails on the back (palm-down rest pose: +Y) of the four finger tips.
+V3 hand_colour(const Anatomy& A, V3 p, V3 n, bool left, V3 skin) {
+  const V3* J = A.J;
+  V3 c = skin;
+  const int base = left ? 25 : 40;
+  for (int f = 0; f < 4; ++f) {
+    const V3 j2 = J[base + 3 * f + 1], j3 = J[base + 3 * f + 2];
+    const V3 dir = unit(j3 - j2);
+    const double len = 0.85 * norm(j3 - j2);
+    const V3 q = p - j3;
+    const double along = dot(q, dir);
+    if (along > 0.25 * len && along < 0.95 * len && norm(q - along * dir) < 0.016 && n.y > 0.55)
+      c = mix(skin, V3(0.96, 0.86, 0.86), 0.7);
+  }
+  return c;
+}
+
+// Watch on the left wrist (forearm side of the wrist joint), over colour c.
+V3 with_watch(const Anatomy& A, V3 p, V3 n, V3 c) {
+  const V3 axis = unit(A.J[20] - A.J[18]);
+  const V3 q = p - A.J[20];
+  const double along = dot(q, axis);
+  if (along > -0.035 && along < -0.012) {
+    c = V3(0.12, 0.08, 0.06);
+    const double r = std::hypot(along + 0.0235, q.z);
+    if (n.y > 0.5 && r < 0.015) c = r < 0.012 ? V3(0.85, 0.88, 0.92) : V3(0.55, 0.55, 0.58);
+  }
+  return c;
+}
+
+}  // namespace
+
 // Body colour at a rest-surface point: position p, unit normal n, skinning-group weights g.
 V3 shade_body(const Anatomy& A, const Palette& P, V3 p, V3 n, const double* g) {
   int grp = 0;
   for (int k = 1; k < kGroups; ++k)
     if (g[k] > g[grp]) grp = k;
-  const V3* J = A.J;
-  const bool left = p.x > J[0].x;  // the subject's left is +X
-  const double d = A.d;
+  const bool left = p.x > A.J[0].x;  // the subject's left is +X
   const double skin_var = 0.95 + 0.1 * value_noise(p, 0.03, P.noise_seed);
-  V3 skin = skin_var * P.skin;
-  V3 c = skin;
-
-  auto hair_colour = [&] {
-    const double phi = head_azimuth(A, p);
-    const double streak = 0.5 + 0.5 * std::sin(55 * phi + 6 * std::sin(23 * p.y));
-    return (0.72 + 0.4 * streak) * P.hair;
-  };
-
+  const V3 skin = skin_var * P.skin;
+  V3 c;
   switch (grp) {
-    case gEye: {
-      const V3 q = unit(p - (left ? J[kLeftEye] : J[kRightEye]));
-      c = q.z > std::cos(0.20) ? V3(0.04, 0.04, 0.05) : (q.z > std::cos(0.45) ? P.iris : V3(0.95, 0.95, 0.92));
-      break;
-    }
+    case gEye: c = eye_colour(A, P, p, left); break;
     case gHead:
-    case gNeck: {
-      if (hair_depth(A, p) > 0) {
-        c = hair_colour();
-        break;
-      }
-      if (grp == gNeck || p.z < A.eye_mid.z - 0.03 || n.z < 0.1) break;  // skin
-      // Face features in units of the eye distance, relative to the eyes' midpoint.
-      const double xs = (p.x - A.eye_mid.x) / d, ys = (p.y - A.eye_mid.y) / d;
-      const double ax = std::abs(xs);
-      const double blush = 0.22 * std::exp(-((ax - 0.72) * (ax - 0.72) + (ys + 0.5) * (ys + 0.5)) / (2 * 0.18 * 0.18));
-      c = mix(c, V3(0.90, 0.45, 0.45), blush);
-      const double ex = ax - 0.5;
-      const double ell = (ex / 0.27) * (ex / 0.27) + (ys / 0.125) * (ys / 0.125);
-      if (ell <= 1) {
-        const double r = std::hypot(ex, ys);
-        c = r < 0.05 ? V3(0.04, 0.04, 0.05) : (r < 0.11 ? (r > 0.09 ? 0.6 * P.iris : P.iris) : V3(0.95, 0.95, 0.92));
-      } else if (ell < 1.45 && ys > -0.03) {
-        c = V3(0.08, 0.06, 0.06);  // lash line
-      }
-      if (ax > 0.15 && ax < 0.85) {
-        const double u = (ax - 0.48) / 0.37;
-        const double yb = 0.34 + 0.07 * (1 - u * u);
-        if (std::abs(ys - yb) < 0.045 * (1.2 - 0.5 * smoothstep(0.3, 0.85, ax))) c = 0.8 * P.hair + V3(0.02, 0.02, 0.02);
-      }
-      const double nx = ax - 0.11;
-      if ((nx / 0.055) * (nx / 0.055) + ((ys + 0.64) / 0.03) * ((ys + 0.64) / 0.03) < 1) c = 0.45 * skin;
-      const double ly = ys + 1.0, lh = ly > 0 ? 0.10 : 0.13;
-      if ((xs / 0.36) * (xs / 0.36) + (ly / lh) * (ly / lh) < 1) c = P.lips;
-      if (std::abs(ly) < 0.018 && ax < 0.33) c = V3(0.30, 0.08, 0.08);
-      break;
-    }
-    case gTorso: {
-      // Crew neck: above a plane tilted down toward the front, near the neck axis (the
-      // shoulder tops, further out, stay shirt).
-      const V3 nk = J[kNeckJoint];
-      const double front = smoothstep(-0.02, 0.05, p.z - nk.z);
-      const double y_collar = nk.y - 0.025 - 0.04 * front;
-      const double r_neck = std::hypot(p.x - nk.x, p.z - nk.z);
-      if (p.y > y_collar && r_neck < 0.11) {
-        c = skin;
-      } else if (p.y > y_collar - 0.012 && r_neck < 0.12) {
-        c = P.shirt;  // collar band
-      } else if (p.y > A.waist_y) {
-        const V3 ctr = J[6];
-        const double arc = 0.16 * std::atan2(p.x - ctr.x, p.z - ctr.z);
-        c = gingham(P, arc, p.y, 0.032);
-        // Chest emblem (front, subject's left) and "HAHA" on the back: front/back and
-        // left/right become distinguishable while turning.
-        const V3 em(J[9].x + 0.075, J[9].y + 0.02, 0);
-        if (n.z > 0.45 && std::hypot(p.x - em.x, p.y - em.y) < 0.032)
-          c = std::hypot(p.x - em.x, p.y - em.y) < 0.014 ? P.shirt : P.accent;
-        if (n.z < -0.45) {
-          const std::string text = "HAHA";
-          const double px = 0.0105, cols = double(text.size()) * kFontAdvance - 1;
-          const double x0 = J[6].x + 0.5 * cols * px, y0 = J[9].y + 0.03;
-          const int col = int(std::floor((x0 - p.x) / px)), row = int(std::floor((y0 - p.y) / px));
-          if (col >= 0 && col < int(cols) && row >= 0 && row < kFontHeight &&
-              font_pixel(text[size_t(col / kFontAdvance)], col % kFontAdvance, row))
-            c = P.accent;
-        }
-      } else if (p.y > A.waist_y - 0.025) {
-        const bool buckle = n.z > 0.6 && std::abs(p.x - J[0].x) < 0.022;
-        c = buckle ? V3(0.85, 0.70, 0.30) : V3(0.25, 0.15, 0.08);  // belt
-      } else {
-        c = (0.92 + 0.16 * value_noise(p, 0.015, P.noise_seed + 1)) * P.trousers;
-      }
-      break;
-    }
-    case gLeg: {
-      const int hip = left ? 1 : 2, knee = left ? 4 : 5, ankle = left ? 7 : 8;
-      if (p.y < J[ankle].y + 0.012) {
-        c = P.shoe;
-        break;
-      }
-      c = (0.92 + 0.16 * value_noise(p, 0.015, P.noise_seed + 1)) * P.trousers;
-      // Stripe down the outer side: axis point at this height between hip, knee, ankle.
-      const V3 a0 = p.y > J[knee].y ? J[hip] : J[knee], a1 = p.y > J[knee].y ? J[knee] : J[ankle];
-      const double t = clamp((p.y - a0.y) / (a1.y - a0.y), 0.0, 1.0);
-      const V3 ax = mix(a0, a1, t);
-      const double ang = std::atan2(p.z - ax.z, (p.x - ax.x) * (left ? 1 : -1));
-      if (std::abs(ang) < 0.16) c = std::abs(ang) < 0.05 ? P.accent : V3(0.92, 0.92, 0.92);
-      break;
-    }
-    case gFoot: {
-      const int ankle = left ? 7 : 8;
-      c = P.shoe;
-      if (p.y < A.floor_y + 0.018) {
-        c = V3(0.35, 0.33, 0.32);  // sole
-      } else if (std::abs(n.x) > 0.6 && p.y > A.floor_y + 0.028 && p.y < A.floor_y + 0.042) {
-        c = P.accent;
-      } else if (n.y > 0.5) {
-        const double fz = p.z - J[ankle].z;
-        if (fz > 0.03 && fz < 0.11 && std::abs(p.x - J[ankle].x) < 0.018) {
-          const double f = fz / 0.012 - std::floor(fz / 0.012);
-          if (f < 0.45) c = V3(0.97, 0.97, 0.97);  // laces
-        }
-      }
-      break;
-    }
-    case gArm: {
-      const int sh = left ? 16 : 17, el = left ? 18 : 19;
-      const V3 axis = unit(J[el] - J[sh]);
-      const double len = norm(J[el] - J[sh]);
-      const V3 q = p - J[sh];
-      const double along = dot(q, axis);
-      if (along < 0.45 * len) {
-        if (along > 0.38 * len) {
-          c = P.shirt;  // cuff
-        } else {
-          const V3 up(0, 1, 0);
-          const V3 e1 = unit(up - dot(up, axis) * axis), e2 = cross(axis, e1);
-          c = gingham(P, along, 0.045 * std::atan2(dot(q, e2), dot(q, e1)), 0.032);
-        }
-      }
-      break;
-    }
+    case gNeck: c = head_colour(A, P, p, n, grp == gNeck, skin); break;
+    case gTorso: c = torso_colour(A, P, p, n, skin); break;
+    case gLeg: c = leg_colour(A, P, p, left); break;
+    case gFoot: c = foot_colour(A, P, p, n, left); break;
+    case gArm: c = arm_colour(A, P, p, left, skin); break;
     case gHand:
-    default: {
-      // Nails on the back (palm-down rest pose: +Y) of the four finger tips.
-      const int base = left ? 25 : 40;
-      for (int f = 0; f < 4; ++f) {
-        const V3 j2 = J[base + 3 * f + 1], j3 = J[base + 3 * f + 2];
-        const V3 dir = unit(j3 - j2);
-        const double len = 0.85 * norm(j3 - j2);
-        const V3 q = p - j3;
-        const double along = dot(q, dir);
-        if (along > 0.25 * len && along < 0.95 * len && norm(q - along * dir) < 0.016 && n.y > 0.55)
-          c = mix(skin, V3(0.96, 0.86, 0.86), 0.7);
-      }
-      break;
-    }
+    default: c = hand_colour(A, p, n, left, skin); break;
   }
-  // Watch on the left wrist (forearm side of the wrist joint).
-  if (left && (grp == gArm || grp == gHand)) {
-    const V3 axis = unit(J[20] - J[18]);
-    const V3 q = p - J[20];
-    const double along = dot(q, axis);
-    if (along > -0.035 && along < -0.012) {
-      c = V3(0.12, 0.08, 0.06);
-      const double r = std::hypot(along + 0.0235, q.z);
-      if (n.y > 0.5 && r < 0.015) c = r < 0.012 ? V3(0.85, 0.88, 0.92) : V3(0.55, 0.55, 0.58);
-    }
-  }
+  if (left && (grp == gArm || grp == gHand)) c = with_watch(A, p, n, c);
   // Baked ambient light (static: a texture can hold it).
   return (0.86 + 0.14 * n.y) * c;
 }
