@@ -13,6 +13,6 @@
 import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
-  test: 'js_babylon_extension', engine: 'babylon', page: 'babylon_page.html',
+  test: 'js_babylon_extension', engine: 'babylon',
   packages: ['babylonjs', 'babylonjs-loaders', 'three', 'fflate'], modes: [['', {}], ['leftHanded', { leftHanded: true }], ['exactBody', { exactBody: true }]], mixer: 'an AnimationGroup',
 }));

@@ -6,7 +6,9 @@
 //   node format/js/test/babylon_gsmesh_measure.mjs --work /tmp/w
 // (uses avatar_plain.glb, motion.npz, cam.json and ref_plain/frame_00001.png of that run).
 import fs from 'node:fs';
-import { requireBrowser, parseArgs, readPng, psnr, fmtPsnr, startServer, launch, loadAvatarNode, readMotionFor, decodeRgb, writeStrip } from './common.mjs';
+import {
+  requireBrowser, parseArgs, readPng, psnr, fmtPsnr, startServer, launch, openTestPage, loadAvatarNode, readMotionFor, decodeRgb, writeStrip,
+} from './common.mjs';
 
 const opts = parseArgs({ frame: '3' });
 const { chromium, PNG } = await requireBrowser(opts, 'babylon_gsmesh_measure', ['babylonjs', 'babylonjs-loaders', 'three']);
@@ -18,12 +20,7 @@ const motion = await readMotionFor(`${work}/motion.npz`, ref0);
 const ref = readPng(PNG, `${work}/ref_plain/frame_00001.png`);
 const { server, base } = await startServer({ 'plain.glb': `${work}/avatar_plain.glb` });
 const browser = await launch(chromium, opts);
-const page = await browser.newPage();
-const msgs = [];
-page.on('console', (m) => msgs.push(m.text()));
-page.on('pageerror', (e) => msgs.push(e.message));
-await page.goto(`${base}test/babylon_page.html`);
-await page.waitForFunction(() => window.hahaReady === true);
+const { page } = await openTestPage(browser, base, 'babylon');
 await page.evaluate(() => window.hahaTest.load('/files/plain.glb', {}));
 const { pose, transl } = motion.frames[Number(opts.frame)];
 await page.evaluate(([p, t]) => window.hahaTest.setPose(p, t), [Array.from(pose), Array.from(transl)]);

@@ -162,6 +162,39 @@ export function startServer(files) {
   });
 }
 
+// The test page of an engine (page.html?engine=three|babylon|spark), ready to drive through
+// window.hahaTest; errors collects the page's errors and its console messages of consoleTypes.
+export async function openTestPage(browser, base, engine, consoleTypes = ['error']) {
+  const page = await browser.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  page.on('console', (m) => { if (consoleTypes.includes(m.type())) errors.push(m.text()); });
+  await page.goto(`${base}test/page.html?engine=${engine}`);
+  await page.waitForFunction(() => window.hahaReady === true);
+  return { page, errors };
+}
+
+// Serves format/js/ and `files` (startServer), opens the engine's test page in headless
+// Chromium (openTestPage) and awaits body({ page, errors, fail }); fail(message) prints
+// "FAIL: message", and so does an exception. Closes browser and server; returns whether
+// anything failed.
+export async function runOnTestPage({ chromium, opts, files, engine, consoleTypes }, body) {
+  const { server, base } = await startServer(files);
+  const browser = await launch(chromium, opts);
+  let failed = false;
+  const fail = (m) => { console.log(`FAIL: ${m}`); failed = true; };
+  try {
+    const { page, errors } = await openTestPage(browser, base, engine, consoleTypes);
+    await body({ page, errors, fail });
+  } catch (e) {
+    fail(e.stack || e.message);
+  } finally {
+    await browser.close();
+    server.close();
+  }
+  return failed;
+}
+
 export async function launch(chromium, opts) {
   return chromium.launch({
     executablePath: opts.chromium,
@@ -279,7 +312,7 @@ export function raisedArmPose() {
   return { pose, transl: new Float64Array(3) };
 }
 
-// The browser test of one engine (spec: { test, engine, page, packages, modes: [[label, load
+// The browser test of one engine (spec: { test, engine, packages, modes: [[label, load
 // options], ...], mixer }; the first mode is the engine's default, run on every pack variant
 // and the only one whose Gaussian centres are checked; the others run on the last variant):
 // returns the exit code.
@@ -319,17 +352,7 @@ export async function engineTest(spec) {
   }
 
   const files = Object.fromEntries(variants.map((v) => [`${v.name}.glb`, v.file]));
-  const { server, base } = await startServer(files);
-  const browser = await launch(chromium, opts);
-  let failed = false;
-  const fail = (m) => { console.log(`FAIL: ${m}`); failed = true; };
-  try {
-    const page = await browser.newPage();
-    const errors = [];
-    page.on('pageerror', (e) => errors.push(e.message));
-    page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') errors.push(m.text()); });
-    await page.goto(`${base}test/${spec.page}`);
-    await page.waitForFunction(() => window.hahaReady === true);
+  const failed = await runOnTestPage({ chromium, opts, files, engine: spec.engine, consoleTypes: ['error', 'warning'] }, async ({ page, errors, fail }) => {
     for (const v of variants) {
       const ref = await loadAvatarNode(v.file);
       for (const [mode, loadOptions] of spec.modes) {
@@ -384,12 +407,7 @@ export async function engineTest(spec) {
     }
     if (errors.length) console.log(`browser messages:\n${errors.join('\n')}`);
     console.log(`images in ${work}; ${((Date.now() - t0) / 1000).toFixed(1)} s`);
-  } catch (e) {
-    fail(e.stack || e.message);
-  } finally {
-    await browser.close();
-    server.close();
-  }
+  });
   if (!failed && !opts.keep && !opts.work) fs.rmSync(work, { recursive: true, force: true });
   return failed ? 1 : 0;
 }

@@ -1,27 +1,17 @@
-// Test page of Spark skinning (spark_skinning_test.mjs): a plain three.js application that
-// loads a `haha pack --khr-gaussian-splatting` avatar with GLTFLoader (+ DRACOLoader, served
-// locally), builds a Spark SplatMesh from the skinned KHR_gaussian_splatting primitive (node 56:
+// Test page of Spark skinning (spark_skinning_test.mjs; page.html?engine=spark): a plain
+// three.js application that loads a `haha pack --khr-gaussian-splatting` avatar with GLTFLoader
+// (+ DRACOLoader, served locally), builds a Spark SplatMesh from the skinned KHR_gaussian_splatting primitive (node 56:
 // mesh 1, skin 0) and drives Spark's SplatSkinning from the glTF skeleton. No HAHA plugin: only
 // what the standard glTF part of the file (format/spec.md section 2) gives any engine.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { ExtSplats, SparkRenderer, SplatMesh, SplatSkinning, SplatSkinningMode } from '@sparkjsdev/spark';
-import { poseBones, applyOpenCvCamera, toBase64 } from './page_common.js';
+import { threeApp, poseBones, applyOpenCvCamera, toBase64, typedBase64 as b64, readRgba, topDownRgb } from './page_common.js';
 
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true });
-renderer.setPixelRatio(1);
-const scene = new THREE.Scene();
-scene.background = new THREE.Color(0, 0, 0);
-// Covariance splats in an extended (float32 centre) accumulator: what Spark's linear blend
-// skinning needs (its default accumulator takes no covariance generator).
-let spark;
-const camera = new THREE.PerspectiveCamera();
-const draco = new DRACOLoader().setDecoderPath('/node_modules/three/examples/jsm/libs/draco/');
+const { renderer, scene, camera, draco } = threeApp(THREE, DRACOLoader);
 const SH_C0 = 0.28209479177387814;
-const b64 = (a) => toBase64(new Uint8Array(a.buffer, a.byteOffset, a.byteLength));
-let gltf, bones, boneInverses, splats, skinning, helper, rootRest, file;
+let spark, gltf, bones, boneInverses, splats, skinning, helper, rootRest, file;
 
 // Spark keeps 8 bits per weight (round(w * 255)) and does not renormalise: weights whose codes
 // do not sum to 255 scale the splat about the origin (1/255 = 4 mm per metre). So: 8-bit codes
@@ -35,7 +25,7 @@ function weights255(w) {
   return code;
 }
 
-window.hahaTest = {
+export default {
   async load(url) {
     // Covariance splats in an extended (float32 centre) accumulator: what Spark's linear
     // blend skinning needs (its default accumulator takes no covariance generator).
@@ -126,14 +116,13 @@ window.hahaTest = {
   async render(cam) {
     renderer.setSize(cam.width, cam.height, false);
     applyOpenCvCamera(cam, camera);
-    const gl = renderer.getContext();
-    const rgba = new Uint8Array(4 * cam.width * cam.height);
+    const gl = renderer.getContext(), rgba = new Uint8Array(4 * cam.width * cam.height);
     let last = null, same = 0, frames = 0;
     const t0 = performance.now();
     while (performance.now() - t0 < 30000) {
       renderer.render(scene, camera);
       frames++;
-      gl.readPixels(0, 0, cam.width, cam.height, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+      readRgba(gl, cam.width, cam.height, rgba);
       const now = toBase64(rgba), lit = rgba.some((v, i) => (i & 3) !== 3 && v > 8);
       same = lit && now === last ? same + 1 : 0;
       if (same >= 3) break;
@@ -141,11 +130,6 @@ window.hahaTest = {
       await new Promise((r) => setTimeout(r, 100));
     }
     this.frames = frames;
-    const rgb = new Uint8Array(3 * cam.width * cam.height);
-    for (let y = 0; y < cam.height; y++) for (let x = 0; x < cam.width; x++) for (let c = 0; c < 3; c++) {
-      rgb[3 * (y * cam.width + x) + c] = rgba[4 * ((cam.height - 1 - y) * cam.width + x) + c];
-    }
-    return toBase64(rgb);
+    return toBase64(topDownRgb(rgba, cam.width, cam.height));
   },
 };
-window.hahaReady = true;

@@ -22,7 +22,7 @@
 import fs from 'node:fs';
 import { execFileSync } from 'node:child_process';
 import {
-  parseArgs, requireBrowser, runner, workDir, tinyRun, startServer, launch, loadAvatarNode, framingCameraJson,
+  parseArgs, requireBrowser, runner, workDir, tinyRun, runOnTestPage, loadAvatarNode, framingCameraJson,
   writePng, writeStrip, decodeRgb, SKIP,
 } from './common.mjs';
 
@@ -116,17 +116,7 @@ function matchByRest(pos, rest) {
   return { match, worst };
 }
 
-const { server, base } = await startServer({ 'avatar.glb': file });
-const browser = await launch(chromium, opts);
-let failed = false;
-const fail = (m) => { console.log(`FAIL: ${m}`); failed = true; };
-try {
-  const page = await browser.newPage();
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-  await page.goto(`${base}test/spark_page.html`);
-  await page.waitForFunction(() => window.hahaReady === true);
+const failed = await runOnTestPage({ chromium, opts, files: { 'avatar.glb': file }, engine: 'spark', consoleTypes: ['error'] }, async ({ page, errors, fail }) => {
   let info;
   try {
     info = await page.evaluate((url) => window.hahaTest.load(url), '/files/avatar.glb');
@@ -237,12 +227,7 @@ try {
   if (!(changed > 0.005 * W * H && leftSide >= 0.9 * changed)) fail('the render did not follow the arm');
   if (errors.length) console.log(`browser messages:\n${errors.join('\n')}`);
   console.log(`${((Date.now() - t0) / 1000).toFixed(1)} s`);
-} catch (e) {
-  fail(e.stack || e.message);
-} finally {
-  await browser.close();
-  server.close();
-}
+});
 if (!failed && !opts.keep && !opts.work) fs.rmSync(work, { recursive: true, force: true });
 console.log(failed ? `${TEST}: FAIL` : `${TEST}: pass`);
 process.exit(failed ? 1 : 0);

@@ -12,6 +12,6 @@
 import { engineTest } from './common.mjs';
 
 process.exit(await engineTest({
-  test: 'js_three_plugin', engine: 'three', page: 'three_page.html', packages: ['three', 'fflate'],
+  test: 'js_three_plugin', engine: 'three', packages: ['three', 'fflate'],
   modes: [['', {}], ['exactBody', { exactBody: true }]], mixer: 'an AnimationMixer',
 }));
