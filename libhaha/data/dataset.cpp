@@ -171,70 +171,84 @@ bool Dataset::is_static_camera() const {
 // ---------------------------------------------------------------------------------------
 // Reading
 
-Dataset read_dataset(const std::string& dir, LoadPixels load) {
-  const std::string json_path = (fs::path(dir) / "dataset.json").string();
+namespace {
+
+// dataset.json, parsed; `where` names one of its keys in messages.
+struct DatasetJson {
+  std::string dir, path;
+  ojson root;
+  std::string where(const std::string& key) const { return path + ": " + key; }
+  const ojson& require(const char* key) const {
+    if (!root.contains(key)) fail(where(key), "missing");
+    return root[key];
+  }
+};
+
+DatasetJson read_dataset_json(const std::string& dir) {
+  DatasetJson j;
+  j.dir = dir;
+  j.path = (fs::path(dir) / "dataset.json").string();
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) fail(dir, "no such dataset directory");
-  if (!fs::is_regular_file(json_path, ec)) fail(json_path, "missing (not a haha dataset directory)");
-
-  ojson root;
-  {
-    std::ifstream f(json_path, std::ios::binary);
-    if (!f) fail(json_path, "cannot open");
-    std::stringstream ss;
-    ss << f.rdbuf();
-    try {
-      root = ojson::parse(ss.str());
-    } catch (const std::exception& e) {
-      fail(json_path, "invalid JSON: " + json_error_message(e));
-    }
+  if (!fs::is_regular_file(j.path, ec)) fail(j.path, "missing (not a haha dataset directory)");
+  std::ifstream f(j.path, std::ios::binary);
+  if (!f) fail(j.path, "cannot open");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  try {
+    j.root = ojson::parse(ss.str());
+  } catch (const std::exception& e) {
+    fail(j.path, "invalid JSON: " + json_error_message(e));
   }
-  auto where = [&](const std::string& key) { return json_path + ": " + key; };
-  if (!root.is_object()) fail(json_path, "expected a JSON object at the top level");
+  return j;
+}
+
+// Known keys only, and this format and version.
+void check_header(const DatasetJson& j) {
+  const ojson& root = j.root;
+  if (!root.is_object()) fail(j.path, "expected a JSON object at the top level");
   for (const auto& [k, v] : root.items()) {
     (void)v;
     static const char* known[] = {"format", "version", "width", "height", "fps",        "gender",
                                   "source", "source_crop", "premultiplied", "fits", "camera", "smplx", "smplx_true", "frames"};
     bool ok = false;
     for (const char* kk : known) ok = ok || k == kk;
-    if (!ok) fail(where(k), "unknown key");
+    if (!ok) fail(j.where(k), "unknown key");
   }
-  auto require = [&](const char* key) -> const ojson& {
-    if (!root.contains(key)) fail(where(key), "missing");
-    return root[key];
-  };
-  if (!require("format").is_string() || root["format"].get<std::string>() != kDatasetFormat)
-    fail(where("format"), std::string("expected \"") + kDatasetFormat + "\"");
-  if (!require("version").is_number_integer() || root["version"].get<int64_t>() != kDatasetVersion)
-    fail(where("version"), "unsupported version (this build reads version " + std::to_string(kDatasetVersion) + ")");
+  if (!j.require("format").is_string() || root["format"].get<std::string>() != kDatasetFormat)
+    fail(j.where("format"), std::string("expected \"") + kDatasetFormat + "\"");
+  if (!j.require("version").is_number_integer() || root["version"].get<int64_t>() != kDatasetVersion)
+    fail(j.where("version"), "unsupported version (this build reads version " + std::to_string(kDatasetVersion) + ")");
+}
 
-  Dataset ds;
-  ds.path = dir;
+// The dataset-wide values: size, fps, gender, source, premultiplied, source_crop, fits.
+void read_properties(const DatasetJson& j, Dataset& ds) {
+  const ojson& root = j.root;
   auto size_value = [&](const char* key) {
-    const ojson& v = require(key);
+    const ojson& v = j.require(key);
     if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > 32768)
-      fail(where(key), "expected an integer in [1, 32768]");
+      fail(j.where(key), "expected an integer in [1, 32768]");
     return int(v.get<int64_t>());
   };
   ds.width = size_value("width");
   ds.height = size_value("height");
   if (root.contains("fps")) {
     if (!root["fps"].is_number() || !(root["fps"].get<double>() > 0) || !std::isfinite(root["fps"].get<double>()))
-      fail(where("fps"), "expected a positive number");
+      fail(j.where("fps"), "expected a positive number");
     ds.fps = root["fps"].get<double>();
   }
   if (root.contains("gender")) {
-    if (!root["gender"].is_string()) fail(where("gender"), "expected a string");
+    if (!root["gender"].is_string()) fail(j.where("gender"), "expected a string");
     ds.gender = root["gender"].get<std::string>();
     if (ds.gender != "neutral" && ds.gender != "male" && ds.gender != "female")
-      fail(where("gender"), "'" + ds.gender + "' is not neutral, male or female");
+      fail(j.where("gender"), "'" + ds.gender + "' is not neutral, male or female");
   }
   if (root.contains("source")) {
-    if (!root["source"].is_string()) fail(where("source"), "expected a string");
+    if (!root["source"].is_string()) fail(j.where("source"), "expected a string");
     ds.source = root["source"].get<std::string>();
   }
   if (root.contains("premultiplied")) {
-    if (!root["premultiplied"].is_boolean()) fail(where("premultiplied"), "expected true or false");
+    if (!root["premultiplied"].is_boolean()) fail(j.where("premultiplied"), "expected true or false");
     ds.premultiplied = root["premultiplied"].get<bool>() ? 1 : 0;
   }
   if (root.contains("source_crop")) {
@@ -242,54 +256,63 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
     bool ok = v.is_array() && v.size() == 4;
     for (size_t k = 0; ok && k < 4; ++k)
       ok = v[k].is_number_integer() && v[k].get<int64_t>() >= 0 && v[k].get<int64_t>() <= 32768 * 4;
-    if (!ok) fail(where("source_crop"), "expected [x0, y0, w, h]: four non-negative integers");
+    if (!ok) fail(j.where("source_crop"), "expected [x0, y0, w, h]: four non-negative integers");
     for (size_t k = 0; k < 4; ++k) ds.source_crop[k] = int(v[k].get<int64_t>());
     if (ds.source_crop[2] != ds.width || ds.source_crop[3] != ds.height)
-      fail(where("source_crop"), "box is " + std::to_string(ds.source_crop[2]) + "x" +
-                                     std::to_string(ds.source_crop[3]) + ", the dataset " + std::to_string(ds.width) +
-                                     "x" + std::to_string(ds.height));
+      fail(j.where("source_crop"), "box is " + std::to_string(ds.source_crop[2]) + "x" +
+                                       std::to_string(ds.source_crop[3]) + ", the dataset " + std::to_string(ds.width) +
+                                       "x" + std::to_string(ds.height));
   }
   if (root.contains("fits")) {
-    if (!root["fits"].is_string()) fail(where("fits"), "expected \"exact\" or \"estimated\"");
-    ds.fits = parse_fits(root["fits"].get<std::string>(), where("fits"));
+    if (!root["fits"].is_string()) fail(j.where("fits"), "expected \"exact\" or \"estimated\"");
+    ds.fits = parse_fits(root["fits"].get<std::string>(), j.where("fits"));
   }
+}
+
+// One entry of "frames" (fw names it); static_cam: the top-level camera, if any.
+void read_frame(const ojson& fj, const std::string& fw, const std::string& dir, const Dataset& ds,
+                const Camera* static_cam, DatasetFrame& f) {
+  if (!fj.is_object()) fail(fw, "expected an object");
+  for (const auto& [k, v] : fj.items()) {
+    (void)v;
+    if (k != "image" && k != "mask" && k != "split" && k != "source_index" && k != "camera")
+      fail(fw + "." + k, "unknown key");
+  }
+  if (!fj.contains("image")) fail(fw + ".image", "missing");
+  if (!fj.contains("mask")) fail(fw + ".mask", "missing");
+  f.image_path = dataset_file(dir, fj["image"], fw + ".image");
+  f.mask_path = dataset_file(dir, fj["mask"], fw + ".mask");
+  if (!fj.contains("split") || !fj["split"].is_string()) fail(fw + ".split", "missing (\"train\" or \"test\")");
+  f.split = parse_split(fj["split"].get<std::string>(), fw + ".split");
+  if (fj.contains("source_index")) {
+    if (!fj["source_index"].is_number_integer()) fail(fw + ".source_index", "expected an integer");
+    f.source_index = int(fj["source_index"].get<int64_t>());
+  }
+  if (fj.contains("camera")) f.camera = parse_camera_object(fj["camera"], ds.width, ds.height, fw + ".camera");
+  else if (static_cam) f.camera = *static_cam;
+  else fail(fw + ".camera", "missing (and no top-level \"camera\")");
+}
+
+// The top-level camera (if any), then the frame list.
+void read_frames(const DatasetJson& j, Dataset& ds) {
   bool have_static = false;
   Camera static_cam;
-  if (root.contains("camera")) {
-    static_cam = parse_camera_object(root["camera"], ds.width, ds.height, where("camera"));
+  if (j.root.contains("camera")) {
+    static_cam = parse_camera_object(j.root["camera"], ds.width, ds.height, j.where("camera"));
     have_static = true;
   }
-
-  const ojson& frames = require("frames");
-  if (!frames.is_array() || frames.empty()) fail(where("frames"), "expected a non-empty list of frames");
+  const ojson& frames = j.require("frames");
+  if (!frames.is_array() || frames.empty()) fail(j.where("frames"), "expected a non-empty list of frames");
   ds.frames.resize(frames.size());
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const std::string fw = where("frames[" + std::to_string(i) + "]");
-    const ojson& fj = frames[i];
-    if (!fj.is_object()) fail(fw, "expected an object");
-    for (const auto& [k, v] : fj.items()) {
-      (void)v;
-      if (k != "image" && k != "mask" && k != "split" && k != "source_index" && k != "camera")
-        fail(fw + "." + k, "unknown key");
-    }
-    DatasetFrame& f = ds.frames[i];
-    if (!fj.contains("image")) fail(fw + ".image", "missing");
-    if (!fj.contains("mask")) fail(fw + ".mask", "missing");
-    f.image_path = dataset_file(dir, fj["image"], fw + ".image");
-    f.mask_path = dataset_file(dir, fj["mask"], fw + ".mask");
-    if (!fj.contains("split") || !fj["split"].is_string()) fail(fw + ".split", "missing (\"train\" or \"test\")");
-    f.split = parse_split(fj["split"].get<std::string>(), fw + ".split");
-    if (fj.contains("source_index")) {
-      if (!fj["source_index"].is_number_integer()) fail(fw + ".source_index", "expected an integer");
-      f.source_index = int(fj["source_index"].get<int64_t>());
-    }
-    if (fj.contains("camera")) f.camera = parse_camera_object(fj["camera"], ds.width, ds.height, fw + ".camera");
-    else if (have_static) f.camera = static_cam;
-    else fail(fw + ".camera", "missing (and no top-level \"camera\")");
-  }
+  for (size_t i = 0; i < frames.size(); ++i)
+    read_frame(frames[i], j.where("frames[" + std::to_string(i) + "]"), j.dir, ds, have_static ? &static_cam : nullptr,
+               ds.frames[i]);
+}
 
-  // Files referenced by the frame list exist and are images of the dataset's size.
-  // Checked here, in order, so the first missing frame is the one reported.
+// Files referenced by the frame list exist and are images of the dataset's size.
+// Checked here, in order, so the first missing frame is the one reported.
+void check_frame_files(const Dataset& ds, const std::string& json_path) {
+  std::error_code ec;
   for (const DatasetFrame& f : ds.frames) {
     for (const std::string* p : {&f.image_path, &f.mask_path}) {
       if (!fs::is_regular_file(*p, ec))
@@ -300,24 +323,23 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
                      std::to_string(ds.width) + "x" + std::to_string(ds.height));
     }
   }
+}
 
-  // Parameters: one row per frame.
-  auto read_params = [&](const char* key) {
-    const std::string p = dataset_file(dir, root[key], where(key));
-    if (!fs::is_regular_file(p, ec)) fail(p, std::string("missing (named by ") + json_path + " " + key + ")");
-    std::vector<SmplxParams> v = read_smplx_params(p);
-    if (v.size() != ds.frames.size())
-      fail(p, std::to_string(v.size()) + " frames of SMPL-X parameters, but " + json_path + " lists " +
-                  std::to_string(ds.frames.size()) + " frames");
-    for (size_t i = 0; i < v.size(); ++i) check_finite(v[i], p + ": frame " + std::to_string(i));
-    return v;
-  };
-  require("smplx");
-  const std::vector<SmplxParams> params = read_params("smplx");
-  for (size_t i = 0; i < params.size(); ++i) ds.frames[i].params = params[i];
-  if (root.contains("smplx_true")) ds.params_true = read_params("smplx_true");
+// Parameters: one row per frame.
+std::vector<SmplxParams> read_params(const DatasetJson& j, const char* key, size_t num_frames) {
+  std::error_code ec;
+  const std::string p = dataset_file(j.dir, j.root[key], j.where(key));
+  if (!fs::is_regular_file(p, ec)) fail(p, std::string("missing (named by ") + j.path + " " + key + ")");
+  std::vector<SmplxParams> v = read_smplx_params(p);
+  if (v.size() != num_frames)
+    fail(p, std::to_string(v.size()) + " frames of SMPL-X parameters, but " + j.path + " lists " +
+                std::to_string(num_frames) + " frames");
+  for (size_t i = 0; i < v.size(); ++i) check_finite(v[i], p + ": frame " + std::to_string(i));
+  return v;
+}
 
-  // The loader must not capture `ds` (it moves on return): it captures the paths.
+// The loader must not capture `ds` (it moves on return): it captures the paths.
+void install_loader(Dataset& ds) {
   std::vector<std::pair<std::string, std::string>> files;
   for (const DatasetFrame& f : ds.frames) files.emplace_back(f.image_path, f.mask_path);
   ds.loader = [files = std::move(files)](int i, Image& rgb, Image& mask) {
@@ -327,6 +349,23 @@ Dataset read_dataset(const std::string& dir, LoadPixels load) {
     check_pixels(rgb, img_path, true);
     check_pixels(mask, mask_path, true);
   };
+}
+
+}  // namespace
+
+Dataset read_dataset(const std::string& dir, LoadPixels load) {
+  const DatasetJson j = read_dataset_json(dir);
+  check_header(j);
+  Dataset ds;
+  ds.path = dir;
+  read_properties(j, ds);
+  read_frames(j, ds);
+  check_frame_files(ds, j.path);
+  j.require("smplx");
+  const std::vector<SmplxParams> params = read_params(j, "smplx", ds.frames.size());
+  for (size_t i = 0; i < params.size(); ++i) ds.frames[i].params = params[i];
+  if (j.root.contains("smplx_true")) ds.params_true = read_params(j, "smplx_true", ds.frames.size());
+  install_loader(ds);
   if (load == LoadPixels::all) ds.load_all();
   return ds;
 }
