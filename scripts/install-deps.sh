@@ -10,9 +10,10 @@ fi
 pkgs=(build-essential cmake ninja-build pkg-config git
       libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libopenmesh-dev
       libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev ffmpeg)
-# The tests and benchmarks (GoogleTest, Google Benchmark) and `haha bench`'s plots (gnuplot):
-# not for the demo, which builds `haha` alone with HAHA_BUILD_TESTS=OFF.
-[ "${HAHA_BUILD_ONLY:-0}" = 1 ] || pkgs+=(libgtest-dev libbenchmark-dev gnuplot-nox)
+# The tests and benchmarks (GoogleTest, Google Benchmark), `haha bench`'s plots (gnuplot) and
+# the Python package's test (python3-numpy for Debian's /usr/bin/python3): not for the demo,
+# which builds `haha` alone with HAHA_BUILD_TESTS=OFF.
+[ "${HAHA_BUILD_ONLY:-0}" = 1 ] || pkgs+=(libgtest-dev libbenchmark-dev gnuplot-nox python3-numpy)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

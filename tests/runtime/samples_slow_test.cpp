@@ -60,11 +60,13 @@ TEST(RuntimeSamples, InstallThenBuildAndRunTheSamplesAgainstThePrefix) {
     if (!e.is_directory()) files.insert(e.path().lexically_relative(prefix).string());
   for (const char* f : {"include/haha/haha_runtime.h", "lib/libhaha_runtime.so", "lib/cmake/haha/hahaConfig.cmake",
                         "lib/cmake/haha/hahaConfigVersion.cmake", "lib/cmake/haha/hahaTargets.cmake",
-                        "lib/pkgconfig/haha_runtime.pc"})
+                        "lib/pkgconfig/haha_runtime.pc", "lib/python/haha/__init__.py"})
     EXPECT_TRUE(files.count(f)) << f << " not installed";
   for (const std::string& f : files) {
+    const bool python = f.rfind("lib/python/haha/", 0) == 0 && f.size() > 3 && f.substr(f.size() - 3) == ".py";
     const bool expected = f == "include/haha/haha_runtime.h" || f.rfind("lib/libhaha_runtime.so", 0) == 0 ||
-                          f.rfind("lib/cmake/haha/haha", 0) == 0 || f == "lib/pkgconfig/haha_runtime.pc";
+                          f.rfind("lib/cmake/haha/haha", 0) == 0 || f == "lib/pkgconfig/haha_runtime.pc" || python ||
+                          f.rfind("share/haha/blender/addons/io_import_haha_avatar/", 0) == 0;
     EXPECT_TRUE(expected) << "unexpected file in the install: " << f;
   }
   // A versioned SONAME, and every dependency resolves from the system.
@@ -72,6 +74,18 @@ TEST(RuntimeSamples, InstallThenBuildAndRunTheSamplesAgainstThePrefix) {
   EXPECT_NE(out.find("libhaha_runtime.so.0."), std::string::npos) << out;
   ASSERT_EQ(sh("ldd " + q(prefix / "lib/libhaha_runtime.so"), &out), 0) << out;
   EXPECT_EQ(out.find("not found"), std::string::npos) << out;
+
+  // The Python package beside the library finds it there (skipped without Debian's python3-numpy).
+  if (sh("/usr/bin/python3 -c 'import numpy'", &out) == 0) {
+    const std::string py = "/usr/bin/python3 -c \"import sys; sys.path.insert(0, '" + (prefix / "lib/python").string() +
+                           "'); import haha; print(haha.library_path()); print(haha.Avatar('" + glb.string() +
+                           "').num_gaussians, 'Gaussians')\"";
+    ASSERT_EQ(sh("env -u HAHA_RUNTIME_LIBRARY " + py, &out), 0) << py << "\n" << out;
+    EXPECT_NE(out.find((prefix / "lib/libhaha_runtime.so").string()), std::string::npos) << out;
+    EXPECT_NE(out.find("300 Gaussians"), std::string::npos) << out;
+  } else {
+    std::printf("note: /usr/bin/python3 without numpy: the installed Python package is not checked\n");
+  }
 
   // samples/c with the one documented command (docs/embedding.md), run from the source tree.
   const fs::path sample_c = tmp.path / "haha_sample_c";
