@@ -87,6 +87,39 @@ async function decodeSparseLowRank(glb, pc, V, decode, fail) {
   return pd;
 }
 
+// The Gaussians' rotations (N x 4, w x y z, float32) from the decoded attributes g:
+// "smallest3" (three components and the index of the largest) or "wxyz"; quantized ones
+// back to unit length.
+function gaussianRotations(g, jg, N, fail) {
+  const smallest3 = jg.rotationEncoding === 'smallest3', gbits = jg.quantizationBits || {};
+  const rot = new Float32Array(4 * N);
+  if (smallest3) {
+    const r3 = g.ROTATION, L = g.ROTATION_LARGEST;
+    for (let i = 0; i < N; i++) {
+      const l = L[i];
+      if (l < 0 || l > 3) fail(`gaussians: ROTATION_LARGEST ${l} out of range`);
+      let s2 = 0;
+      for (let k = 0, o = 0; k < 4; k++) {
+        if (k === l) continue;
+        rot[4 * i + k] = r3[3 * i + o++];
+        s2 += rot[4 * i + k] * rot[4 * i + k];
+      }
+      rot[4 * i + l] = Math.sqrt(Math.max(0, 1 - s2));
+    }
+  } else {
+    rot.set(g.ROTATION);
+  }
+  if (gbits.ROTATION > 0) {  // quantized: back to unit length
+    for (let i = 0; i < N; i++) {
+      const q = rot.subarray(4 * i, 4 * i + 4);
+      const n = Math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (!(n > 1e-6)) fail(`gaussians: zero rotation at Gaussian ${i}`);
+      for (let k = 0; k < 4; k++) q[k] = q[k] / n;
+    }
+  }
+  return rot;
+}
+
 export class Avatar {
   static async load(buffer, decode, name = 'avatar.glb') {
     const a = new Avatar();
@@ -94,12 +127,27 @@ export class Avatar {
     return a;
   }
 
-  // glb: a Glb (glb.js) or an ArrayBuffer of the whole file.
+  // glb: a Glb (glb.js) or an ArrayBuffer of the whole file. The steps below, in the order of
+  // the C++ loader (format/avatar_unpack.cpp), each check where it was.
   async _load(buffer, decode, name) {
     const glb = buffer instanceof Glb ? buffer : new Glb(buffer, name);
-    name = glb.name;
+    const fail = (m) => { throw new Error(`${glb.name}: ${m}`); };
+    const sets = this._readExtension(glb, fail);
+    const m = await this._readBodyMesh(sets, decode, fail);
+    this._readRestVerticesAndFaces(m, fail);
+    this._readSkinWeights(m, sets, fail);
+    const skin = this._readSkeleton(fail);
+    this._readRestJoints(skin, fail);
+    await this._readPoseCorrectives(decode, fail);
+    await this._readGaussians(m, decode, fail);
+    this._readTexture();
+    this._allocateScratch();
+  }
+
+  // The extension object: version, required extensions, body counts, face-frame divisor and
+  // depth margin. Returns the number of skin sets.
+  _readExtension(glb, fail) {
     const root = glb.json;
-    const fail = (m) => { throw new Error(`${name}: ${m}`); };
     const ext = root.extensions && root.extensions[EXT];
     if (!ext) fail(`not a HAHA avatar: the glTF has no ${EXT} extension`);
     if (!Number.isInteger(ext.version) || ext.version < OLDEST_VERSION || ext.version > VERSION) {
@@ -121,8 +169,12 @@ export class Avatar {
     if (!ext.faceFrame || !(ext.faceFrame.scaleDivisor > 0)) fail(`${EXT}.faceFrame.scaleDivisor: missing or not positive`);
     this.divisor = ext.faceFrame.scaleDivisor;
     this.depthMargin = ext.depthTest ? ext.depthTest.margin : 0;
+    return sets;
+  }
 
-    // --- body mesh: Draco (any version) or plain accessors (version 3) ---
+  // --- body mesh: Draco (any version) or plain accessors (version 3) ---
+  async _readBodyMesh(sets, decode, fail) {
+    const glb = this.glb, root = glb.json, ext = this.ext, jb = ext.body;
     const mesh = (root.meshes || [])[jb.mesh];
     if (!mesh || !mesh.primitives || !mesh.primitives.length) fail(`body mesh ${jb.mesh}: missing or without primitives`);
     const prim = mesh.primitives[0];
@@ -132,6 +184,13 @@ export class Avatar {
     if (ext.version < 3 && (!kd || !jd)) fail('body mesh: not Draco-compressed (KHR_draco_mesh_compression missing)');
     const m = kd ? await this._dracoBody(glb, prim, kd, jd, sets, decode, fail) : this._plainBody(glb, prim, sets, fail);
     this.meshDraco = !!kd;
+    return m;
+  }
+
+  // The rest vertices (the first glTF vertex of each body vertex) and the faces as body
+  // vertices, from the decoded body mesh m.
+  _readRestVerticesAndFaces(m, fail) {
+    const V = this.V, F = this.F;
     const src = m.source, pos = m.pos;
     const Vg = src.length;
     if (m.index.length !== 3 * F) fail(`body mesh: ${m.index.length / 3} faces, the file says ${F}`);
@@ -155,8 +214,11 @@ export class Avatar {
     const faces = new Int32Array(3 * F);
     for (let c = 0; c < 3 * F; c++) faces[c] = src[this.gltfFaces[c]];
     this.faces = faces;                     // (F, 3) body vertex indices (in the Gaussians' face order, below)
+  }
 
-    // --- skinning weights, as avatar_unpack.cpp skin_weights(): dense per vertex, sparse here ---
+  // --- skinning weights, as avatar_unpack.cpp skin_weights(): dense per vertex, sparse here ---
+  _readSkinWeights(m, sets, fail) {
+    const ext = this.ext, jd = ext.body.draco, V = this.V, Vg = this.Vg, src = m.source;
     // Versions 1-2 stored Draco-quantized float weights whose sums are off by up to ~1e-3:
     // renormalised. Version 3 weights sum to one exactly (normalized integer codes).
     const bitsW = jd && jd.quantizationBits ? jd.quantizationBits.WEIGHTS : 0;
@@ -190,8 +252,11 @@ export class Avatar {
     this.wOff = wOff;
     this.wJ = Int32Array.from(wJ);
     this.wW = Float64Array.from(wW);
+  }
 
-    // --- skeleton: parents from the skin's node tree ---
+  // --- skeleton: parents from the skin's node tree (returns the skin) ---
+  _readSkeleton(fail) {
+    const root = this.glb.json, jb = this.ext.body;
     const skin = (root.skins || [])[jb.skin];
     if (!skin || !Array.isArray(skin.joints)) fail(`skin ${jb.skin}: missing`);
     const nodeParent = new Int32Array(root.nodes.length).fill(-1);
@@ -200,8 +265,12 @@ export class Avatar {
     if (this.jointNodes.length !== NUM_JOINTS) fail('skin: must have exactly 55 joints (SMPL-X)');
     this.parents = this.jointNodes.map((n) => this.jointNodes.indexOf(nodeParent[n]));
     for (let j = 1; j < NUM_JOINTS; j++) if (this.parents[j] < 0 || this.parents[j] >= j) fail('skin: joints not in parent-first order');
+    return skin;
+  }
 
-    // --- rest joints: regressed from the rest vertices, or stored in the inverse bind matrices ---
+  // --- rest joints: regressed from the rest vertices, or stored in the inverse bind matrices ---
+  _readRestJoints(skin, fail) {
+    const glb = this.glb, root = glb.json, ext = this.ext, jb = ext.body, rest = this.rest;
     const J = new Float64Array(3 * NUM_JOINTS);
     const jr = jb.jointRegressor;
     if (jr) {
@@ -220,8 +289,11 @@ export class Avatar {
       for (let j = 0; j < NUM_JOINTS; j++) for (let c = 0; c < 3; c++) J[3 * j + c] = -ib[16 * j + 12 + c];
     }
     this.restJoints = J;
+  }
 
-    // --- optional pose correctives (V, 3, 486): dense, or "sparse_lowrank" ---
+  // --- optional pose correctives (V, 3, 486): dense, or "sparse_lowrank" ---
+  async _readPoseCorrectives(decode, fail) {
+    const glb = this.glb, jb = this.ext.body, V = this.V;
     this.posedirs = null;
     if (jb.poseCorrectives && jb.poseCorrectives.encoding === 'sparse_lowrank') {
       this.posedirs = await decodeSparseLowRank(glb, jb.poseCorrectives, V, decode, fail);
@@ -244,93 +316,24 @@ export class Avatar {
       this.posedirs = pd;
     }
     this.trainedWithPoseCorrectives = !!jb.trainedWithPoseCorrectives;
+  }
 
-    // --- Gaussians: Draco point cloud, GENERIC attributes by unique id ---
-    const jg = ext.gaussians;
+  // --- Gaussians: Draco point cloud, GENERIC attributes by unique id ---
+  async _readGaussians(m, decode, fail) {
+    const jg = this.ext.gaussians;
     if (!jg || typeof jg !== 'object') fail(`${EXT}.gaussians: missing`);
     const N = jg.count;
     if (!(Number.isInteger(N) && N >= 0)) fail(`${EXT}.gaussians.count: bad value`);
     this.N = N;
-    const ga = jg.attributes;
-    const gbits = jg.quantizationBits || {};
-    // Which face order FACE indexes: the file's faces ("file", versions 1-2, lossless packs)
-    // or the canonical order (version 3), which survives tools that rewrite the mesh.
-    let fileOrder = ext.version < 3;
-    if (jg.faceOrder !== undefined) {
-      if (jg.faceOrder !== 'file' && jg.faceOrder !== 'canonical') fail(`gaussians.faceOrder: unknown '${jg.faceOrder}'`);
-      if (jg.faceOrder === 'canonical' && ext.version < 3) fail(`gaussians.faceOrder: 'canonical' is not in version ${ext.version}`);
-      fileOrder = jg.faceOrder === 'file';
-    } else if (ext.version >= 3) {
-      fail('gaussians.faceOrder: missing');
-    }
-    if (fileOrder && !jd) {
-      fail(`gaussians.faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no ${EXT}.body.draco)`);
-    }
-    this.faceOrder = fileOrder ? 'file' : 'canonical';
+    const fileOrder = this._readGaussianFaceOrder(fail);
     if (!fileOrder) canonicalFaceOrder(this.faces, this.gltfFaces);
     const cornerStored = !fileOrder || m.edgebreaker;
     if (N > 0) {
-      // One point cloud, or importance tiers (haha pack --lod): the viewer reads them all.
-      if (jg.tiers && !Array.isArray(jg.tiers)) fail('gaussians.tiers: not an array');
-      const streams = jg.tiers ? jg.tiers.map((t, i) => glb.checkedView(t.bufferView, t.crc32, `gaussians tier ${i}`))
-                               : [glb.checkedView(jg.bufferView, jg.crc32, 'gaussians')];
-      const smallest3 = jg.rotationEncoding === 'smallest3';
-      if (!smallest3 && jg.rotationEncoding !== 'wxyz') fail(`gaussians: unknown rotationEncoding ${jg.rotationEncoding}`);
-      const gids = { FACE: ga.FACE, OFFSET: ga.OFFSET, ROTATION: ga.ROTATION, SCALE: ga.SCALE, COLOR: ga.COLOR, OPACITY: ga.OPACITY };
-      const gtypes = { FACE: 'Int32Array', OFFSET: 'Float32Array', ROTATION: 'Float32Array', SCALE: 'Float32Array', COLOR: 'Float32Array', OPACITY: 'Float32Array' };
-      if (smallest3) { gids.ROTATION_LARGEST = ga.ROTATION_LARGEST; gtypes.ROTATION_LARGEST = 'Int32Array'; }
-      if (cornerStored) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
-      for (const k of Object.keys(gids)) if (!Number.isInteger(gids[k])) fail(`gaussians.attributes.${k}: missing`);
-      const parts = [];
-      for (const bytes of streams) parts.push(await decode(bytes, gids, gtypes));
-      const g = {};
-      for (const key of Object.keys(gtypes)) {
-        const total = parts.reduce((n, p) => n + p[key].length, 0);
-        g[key] = new (parts[0][key].constructor)(total);
-        let at = 0;
-        for (const p of parts) { g[key].set(p[key], at); at += p[key].length; }
-      }
-      if (g.FACE.length !== N) fail(`gaussians: Draco stream has ${g.FACE.length} points, the file says ${N}`);
-      for (let i = 0; i < N; i++) if (g.FACE[i] < 0 || g.FACE[i] >= F) fail(`gaussians: Gaussian ${i} refers to face ${g.FACE[i]}`);
-      if (cornerStored) {  // turn each Gaussian-carrying face so its corner 0 is the body's
-        const done = new Int8Array(F).fill(-1);
-        for (let i = 0; i < N; i++) {
-          const f = g.FACE[i], r = g.FACE_CORNER[i];
-          if (r < 0 || r > 2) fail(`gaussians: FACE_CORNER ${r} out of range`);
-          if (done[f] >= 0) { if (done[f] !== r) fail(`gaussians: Gaussians on face ${f} disagree on FACE_CORNER`); continue; }
-          done[f] = r;
-          for (const arr of [this.faces, this.gltfFaces]) {
-            const c = [arr[3 * f], arr[3 * f + 1], arr[3 * f + 2]];
-            for (let k = 0; k < 3; k++) arr[3 * f + k] = c[(k + r) % 3];
-          }
-        }
-      }
+      const g = await this._decodeGaussians(cornerStored, decode, fail);
+      if (cornerStored) this._turnFacesToStoredCorners(g, fail);
       // Float32 arrays, as the C++ loader keeps them.
-      const rot = new Float32Array(4 * N);
-      if (smallest3) {
-        const r3 = g.ROTATION, L = g.ROTATION_LARGEST;
-        for (let i = 0; i < N; i++) {
-          const l = L[i];
-          if (l < 0 || l > 3) fail(`gaussians: ROTATION_LARGEST ${l} out of range`);
-          let s2 = 0;
-          for (let k = 0, o = 0; k < 4; k++) {
-            if (k === l) continue;
-            rot[4 * i + k] = r3[3 * i + o++];
-            s2 += rot[4 * i + k] * rot[4 * i + k];
-          }
-          rot[4 * i + l] = Math.sqrt(Math.max(0, 1 - s2));
-        }
-      } else {
-        rot.set(g.ROTATION);
-      }
-      if (gbits.ROTATION > 0) {  // quantized: back to unit length
-        for (let i = 0; i < N; i++) {
-          const q = rot.subarray(4 * i, 4 * i + 4);
-          const n = Math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-          if (!(n > 1e-6)) fail(`gaussians: zero rotation at Gaussian ${i}`);
-          for (let k = 0; k < 4; k++) q[k] = q[k] / n;
-        }
-      }
+      const gbits = jg.quantizationBits || {};
+      const rot = gaussianRotations(g, jg, N, fail);
       const scale = new Float32Array(g.SCALE);
       if (jg.scaleEncoding === 'log') for (let i = 0; i < scale.length; i++) scale[i] = Math.exp(scale[i]);
       else if (jg.scaleEncoding !== 'linear') fail(`gaussians: unknown scaleEncoding ${jg.scaleEncoding}`);
@@ -346,9 +349,76 @@ export class Avatar {
       this.gFace = new Int32Array(0);
       this.gOffset = this.gScale = this.gColor = this.gOpacity = this.gRot = new Float32Array(0);
     }
+  }
 
-    // --- texture: the exact float copy (lossless packs) or the image ---
-    const jt = ext.texture;
+  // Which face order FACE indexes: true for the file's faces ("file", versions 1-2, lossless
+  // packs), false for the canonical order (version 3), which survives tools that rewrite the mesh.
+  _readGaussianFaceOrder(fail) {
+    const ext = this.ext, jd = ext.body.draco, jg = ext.gaussians;
+    let fileOrder = ext.version < 3;
+    if (jg.faceOrder !== undefined) {
+      if (jg.faceOrder !== 'file' && jg.faceOrder !== 'canonical') fail(`gaussians.faceOrder: unknown '${jg.faceOrder}'`);
+      if (jg.faceOrder === 'canonical' && ext.version < 3) fail(`gaussians.faceOrder: 'canonical' is not in version ${ext.version}`);
+      fileOrder = jg.faceOrder === 'file';
+    } else if (ext.version >= 3) {
+      fail('gaussians.faceOrder: missing');
+    }
+    if (fileOrder && !jd) {
+      fail(`gaussians.faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no ${EXT}.body.draco)`);
+    }
+    this.faceOrder = fileOrder ? 'file' : 'canonical';
+    return fileOrder;
+  }
+
+  // The Gaussians of every stream (one point cloud, or tiers), concatenated: { FACE, OFFSET,
+  // ROTATION, (ROTATION_LARGEST), SCALE, COLOR, OPACITY, (FACE_CORNER) }, faces checked.
+  async _decodeGaussians(cornerStored, decode, fail) {
+    const glb = this.glb, jg = this.ext.gaussians, ga = jg.attributes, N = this.N, F = this.F;
+    // One point cloud, or importance tiers (haha pack --lod): the viewer reads them all.
+    if (jg.tiers && !Array.isArray(jg.tiers)) fail('gaussians.tiers: not an array');
+    const streams = jg.tiers ? jg.tiers.map((t, i) => glb.checkedView(t.bufferView, t.crc32, `gaussians tier ${i}`))
+                             : [glb.checkedView(jg.bufferView, jg.crc32, 'gaussians')];
+    const smallest3 = jg.rotationEncoding === 'smallest3';
+    if (!smallest3 && jg.rotationEncoding !== 'wxyz') fail(`gaussians: unknown rotationEncoding ${jg.rotationEncoding}`);
+    const gids = { FACE: ga.FACE, OFFSET: ga.OFFSET, ROTATION: ga.ROTATION, SCALE: ga.SCALE, COLOR: ga.COLOR, OPACITY: ga.OPACITY };
+    const gtypes = { FACE: 'Int32Array', OFFSET: 'Float32Array', ROTATION: 'Float32Array', SCALE: 'Float32Array', COLOR: 'Float32Array', OPACITY: 'Float32Array' };
+    if (smallest3) { gids.ROTATION_LARGEST = ga.ROTATION_LARGEST; gtypes.ROTATION_LARGEST = 'Int32Array'; }
+    if (cornerStored) { gids.FACE_CORNER = ga.FACE_CORNER; gtypes.FACE_CORNER = 'Int32Array'; }
+    for (const k of Object.keys(gids)) if (!Number.isInteger(gids[k])) fail(`gaussians.attributes.${k}: missing`);
+    const parts = [];
+    for (const bytes of streams) parts.push(await decode(bytes, gids, gtypes));
+    const g = {};
+    for (const key of Object.keys(gtypes)) {
+      const total = parts.reduce((n, p) => n + p[key].length, 0);
+      g[key] = new (parts[0][key].constructor)(total);
+      let at = 0;
+      for (const p of parts) { g[key].set(p[key], at); at += p[key].length; }
+    }
+    if (g.FACE.length !== N) fail(`gaussians: Draco stream has ${g.FACE.length} points, the file says ${N}`);
+    for (let i = 0; i < N; i++) if (g.FACE[i] < 0 || g.FACE[i] >= F) fail(`gaussians: Gaussian ${i} refers to face ${g.FACE[i]}`);
+    return g;
+  }
+
+  // Turns each Gaussian-carrying face (faces and gltfFaces) so that its corner 0 is the
+  // body's (FACE_CORNER).
+  _turnFacesToStoredCorners(g, fail) {
+    const N = this.N, F = this.F;
+    const done = new Int8Array(F).fill(-1);
+    for (let i = 0; i < N; i++) {
+      const f = g.FACE[i], r = g.FACE_CORNER[i];
+      if (r < 0 || r > 2) fail(`gaussians: FACE_CORNER ${r} out of range`);
+      if (done[f] >= 0) { if (done[f] !== r) fail(`gaussians: Gaussians on face ${f} disagree on FACE_CORNER`); continue; }
+      done[f] = r;
+      for (const arr of [this.faces, this.gltfFaces]) {
+        const c = [arr[3 * f], arr[3 * f + 1], arr[3 * f + 2]];
+        for (let k = 0; k < 3; k++) arr[3 * f + k] = c[(k + r) % 3];
+      }
+    }
+  }
+
+  // --- texture: the exact float copy (lossless packs) or the image ---
+  _readTexture() {
+    const glb = this.glb, root = glb.json, jt = this.ext.texture;
     const img = root.images[jt.image];
     this.textureMime = img.mimeType;
     this.textureBytes = glb.checkedView(img.bufferView, jt.crc32, 'texture');
@@ -357,8 +427,11 @@ export class Avatar {
       const b = glb.checkedView(jt.exact.bufferView, jt.exact.crc32, 'texture.exact');
       this.textureExact = { width: jt.exact.width, height: jt.exact.height, data: new Float32Array(b.slice().buffer) };
     }
+  }
 
-    // Scratch of repose().
+  // Scratch of repose().
+  _allocateScratch() {
+    const V = this.V, N = this.N, F = this.F;
     this.posed = new Float64Array(3 * V);
     this.skinA = new Float64Array(12 * NUM_JOINTS);
     this.means = new Float64Array(3 * N);
