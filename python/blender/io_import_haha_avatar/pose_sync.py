@@ -92,11 +92,26 @@ def live_avatar(arm):
     return entry
 
 
+def quat_to_matrix(q):
+    """(G, 4) (w, x, y, z) -> (G, 3, 3) rotation matrices."""
+    w, x, y, z = (q[:, i].astype(np.float64) for i in range(4))
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], 1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], 1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], 1)], 1)
+
+
 def write_gaussians(obj, posed, colors=True):
+    """Centres, rotations (Euler XYZ), scales and the material's inverse frames (rows of
+    (R diag(k s))^-1, k the drawn ellipsoid's deviations) of the posed Gaussians."""
+    from .scene_build import SPHERE_SIGMAS
     me = obj.data
     me.vertices.foreach_set("co", posed.means.reshape(-1))
     me.attributes["haha_rotation"].data.foreach_set("vector", quat_to_euler_xyz(posed.rotations).reshape(-1))
     me.attributes["haha_scale"].data.foreach_set("vector", posed.scales.reshape(-1))
+    inv = np.swapaxes(quat_to_matrix(posed.rotations), 1, 2)  # R^T
+    inv /= SPHERE_SIGMAS * np.maximum(posed.scales.astype(np.float64), 1e-12)[:, :, None]
+    for i in range(3):
+        me.attributes["haha_inv%d" % i].data.foreach_set("vector", np.ascontiguousarray(inv[:, i, :]).reshape(-1))
     if colors:
         rgba = np.ones((len(posed.colors), 4))
         rgba[:, :3] = srgb_to_linear(posed.colors)

@@ -95,7 +95,8 @@ def build_gaussians(name, num_gaussians, parent, collection):
     me = bpy.data.meshes.new(name)
     me.vertices.add(num_gaussians)
     for attr, kind in (("haha_rotation", "FLOAT_VECTOR"), ("haha_scale", "FLOAT_VECTOR"),
-                       ("haha_color", "FLOAT_COLOR"), ("haha_opacity", "FLOAT")):
+                       ("haha_color", "FLOAT_COLOR"), ("haha_opacity", "FLOAT"), ("haha_inv0", "FLOAT_VECTOR"),
+                       ("haha_inv1", "FLOAT_VECTOR"), ("haha_inv2", "FLOAT_VECTOR")):
         me.attributes.new(attr, kind, "POINT")
     obj = bpy.data.objects.new(name, me)
     obj.parent = parent
@@ -103,3 +104,4 @@ def build_gaussians(name, num_gaussians, parent, collection):
     mod = obj.modifiers.new("HAHA Gaussians", "NODES")
     mod.node_group = shading.gaussian_node_group(SPHERE_SIGMAS)
     return obj
+

@@ -1,7 +1,7 @@
 """Materials and the geometry-nodes group that draw the avatar like `haha render`: unlit
-(emission) texture on the body; each Gaussian an oriented, coloured ellipsoid whose opacity
-falls off like the Gaussian's own (alpha = opacity exp(-b^2 / 2) at impact parameter b
-standard deviations, b^2 = s^2 (1 - (n . v)^2) on an ellipsoid of s deviations), back faces
+(emission) texture on the body; each Gaussian an oriented, coloured ellipsoid of `sigmas`
+standard deviations whose opacity falls off like the Gaussian's own splat, alpha =
+opacity exp(-b^2 / 2) where the view ray passes b deviations from the centre; back faces
 transparent. Works in EEVEE (alpha hashed) and Cycles."""
 import bpy
 
@@ -40,8 +40,25 @@ def _math(nt, op, a, b=None):
     return n.outputs["Value"]
 
 
+def _attr(nt, name, output="Vector"):
+    n = nt.nodes.new("ShaderNodeAttribute")
+    n.attribute_name = name
+    return n.outputs[output]
+
+
+def _vmath(nt, op, a, b=None):
+    n = nt.nodes.new("ShaderNodeVectorMath")
+    n.operation = op
+    _link(nt, a, n.inputs[0])
+    if b is not None:
+        _link(nt, b, n.inputs[1])
+    return n.outputs["Value" if op in ("DOT_PRODUCT", "LENGTH") else "Vector"]
+
+
 def gaussian_material(name, sigmas):
-    """Emission of the per-point colour over transparency, alpha as the module says."""
+    """Emission of the per-point colour over transparency. The view ray is taken into the
+    Gaussian's unit-sphere space (rows haha_inv0..2 of (R diag(sigmas s))^-1, object space),
+    where the surface point is haha_unit: b^2 = sigmas^2 (|p|^2 - (p . d)^2), d the unit ray."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     mat.blend_method = "HASHED"
@@ -50,21 +67,22 @@ def gaussian_material(name, sigmas):
     nt = mat.node_tree
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
-    color = nt.nodes.new("ShaderNodeAttribute")
-    color.attribute_name = "haha_color"
-    opacity = nt.nodes.new("ShaderNodeAttribute")
-    opacity.attribute_name = "haha_opacity"
     geo = nt.nodes.new("ShaderNodeNewGeometry")
-    dot = nt.nodes.new("ShaderNodeVectorMath")
-    dot.operation = "DOT_PRODUCT"
-    _link(nt, geo.outputs["Normal"], dot.inputs[0])
-    _link(nt, geo.outputs["Incoming"], dot.inputs[1])
-    sin2 = _math(nt, "SUBTRACT", 1.0, _math(nt, "POWER", dot.outputs["Value"], 2.0))
-    falloff = _math(nt, "EXPONENT", _math(nt, "MULTIPLY", sin2, -0.5 * sigmas * sigmas))
+    to_obj = nt.nodes.new("ShaderNodeVectorTransform")
+    to_obj.vector_type, to_obj.convert_from, to_obj.convert_to = "VECTOR", "WORLD", "OBJECT"
+    _link(nt, geo.outputs["Incoming"], to_obj.inputs["Vector"])
+    comb = nt.nodes.new("ShaderNodeCombineXYZ")
+    for i, axis in enumerate("XYZ"):
+        _link(nt, _vmath(nt, "DOT_PRODUCT", _attr(nt, "haha_inv%d" % i), to_obj.outputs["Vector"]), comb.inputs[axis])
+    d = _vmath(nt, "NORMALIZE", comb.outputs["Vector"])
+    p = _attr(nt, "haha_unit")
+    along = _vmath(nt, "DOT_PRODUCT", p, d)
+    b2 = _math(nt, "SUBTRACT", _vmath(nt, "DOT_PRODUCT", p, p), _math(nt, "MULTIPLY", along, along))
+    falloff = _math(nt, "EXPONENT", _math(nt, "MULTIPLY", b2, -0.5 * sigmas * sigmas))
     front = _math(nt, "SUBTRACT", 1.0, geo.outputs["Backfacing"])
-    alpha = _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", falloff, opacity.outputs["Fac"]), front)
+    alpha = _math(nt, "MULTIPLY", _math(nt, "MULTIPLY", falloff, _attr(nt, "haha_opacity", "Fac")), front)
     emit = nt.nodes.new("ShaderNodeEmission")
-    _link(nt, color.outputs["Color"], emit.inputs["Color"])
+    _link(nt, _attr(nt, "haha_color", "Color"), emit.inputs["Color"])
     clear = nt.nodes.new("ShaderNodeBsdfTransparent")
     mix = nt.nodes.new("ShaderNodeMixShader")
     _link(nt, alpha, mix.inputs["Fac"])
@@ -91,8 +109,14 @@ def gaussian_node_group(sigmas):
     ico = ng.nodes.new("GeometryNodeMeshIcoSphere")
     ico.inputs["Radius"].default_value = 1.0
     ico.inputs["Subdivisions"].default_value = 2
+    unit = ng.nodes.new("GeometryNodeStoreNamedAttribute")  # the unit-sphere point, for the material
+    unit.data_type, unit.domain = "FLOAT_VECTOR", "POINT"
+    unit.inputs["Name"].default_value = "haha_unit"
+    _link(ng, ico.outputs["Mesh"], unit.inputs["Geometry"])
+    value = [i for i in unit.inputs if i.name == "Value" and i.enabled][0]
+    _link(ng, ng.nodes.new("GeometryNodeInputPosition").outputs["Position"], value)
     smooth = ng.nodes.new("GeometryNodeSetShadeSmooth")
-    _link(ng, ico.outputs["Mesh"], smooth.inputs["Geometry"])
+    _link(ng, unit.outputs["Geometry"], smooth.inputs["Geometry"])
     inst = ng.nodes.new("GeometryNodeInstanceOnPoints")
     _link(ng, n_in.outputs[0], inst.inputs["Points"])
     _link(ng, smooth.outputs["Geometry"], inst.inputs["Instance"])
