@@ -4,6 +4,7 @@
 // evaluates mesh only / full Gaussians / HAHA on the test frames as `haha eval` does
 // (CPU, without test-time pose optimisation). It links no I/O library, so it builds with
 // HAHA_WITH_IO=OFF on a machine that has only the compiler, OpenMP and CUDA.
+#include <array>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -197,8 +198,8 @@ std::string ms_per_step(const StageRow& s) {
   return b;
 }
 
-int run(const Options& o) {
-  set_num_threads(o.threads);
+// The config of --preset and --set, with every option checked before the work starts.
+TrainConfig checked_config(const Options& o) {
   TrainConfig cfg = make_preset(o.preset);
   apply_overrides(cfg, o.sets, "--set");
   validate_config(cfg);
@@ -208,21 +209,30 @@ int run(const Options& o) {
     const std::filesystem::path parent = std::filesystem::absolute(o.json).parent_path();
     if (!std::filesystem::is_directory(parent)) fail(o.json, "directory " + parent.string() + " does not exist");
   }
-  const Device device = parse_device(o.device);  // a missing GPU fails here, before any work
-  const std::string gpu = device == Device::cuda ? gpu_description() : "";
-  std::string sets;
-  for (const std::string& kv : o.sets) sets += " " + kv;
-  std::printf("train_bench: subject %d, %d px, %d train + %d test frames, preset %s%s, device %s%s%s, %d threads\n",
-              o.synth.subject, o.synth.size, o.synth.train_frames, o.synth.test_frames, cfg.preset.c_str(),
-              sets.c_str(), device_name(device), gpu.empty() ? "" : ": ", gpu.c_str(), num_threads());
-  std::fflush(stdout);
+  return cfg;
+}
 
-  // The subject and its frames, as `haha synth` (procedural body at full resolution) and
-  // `haha train` / `haha eval` (frames resampled to the config's resolution) see them.
-  const auto t_gen = Clock::now();
-  const BodyModel body = make_procedural_body({BodyResolution::full, o.synth.seed});
-  const SynthScene scene = make_synth_scene(body, o.synth);
+// Everything the run measured, for the tables and the JSON.
+struct BenchNumbers {
+  int width = 0, height = 0;  // the training resolution
+  double gen_seconds = 0, prefit_seconds = 0, train_seconds = 0, eval_seconds = 0;
+  std::array<StageRow, 3> stages;
+  int64_t skipped_steps = 0;
+  size_t test_frames = 0;
+  std::vector<EvalRow> eval;
+};
+
+struct SubjectFrames {
+  SynthScene scene;
   std::vector<TrainFrame> train, test;
+};
+
+// The subject's frames, as `haha synth` (procedural body at full resolution) and
+// `haha train` / `haha eval` (frames resampled to the config's resolution) see them.
+SubjectFrames render_subject_frames(const BodyModel& body, const Options& o, const TrainConfig& cfg) {
+  SubjectFrames f;
+  f.scene = make_synth_scene(body, o.synth);
+  const SynthScene& scene = f.scene;
   render_synth_frames(body, scene, [&](int i, const Image& rgb, const Image& mask) {
     const bool is_train = i < o.synth.train_frames;
     if (!is_train && !o.eval) return;
@@ -231,32 +241,21 @@ int run(const Options& o) {
     round_to_8bit(mask8);
     const std::string name = is_train ? "train frame " + std::to_string(i)
                                       : "test frame " + std::to_string(i - o.synth.train_frames);
-    (is_train ? train : test)
+    (is_train ? f.train : f.test)
         .push_back(make_train_frame(name, scene.camera, scene.fits[size_t(i)], rgb8, mask8, cfg.resolution));
   });
-  const double gen_seconds = seconds_since(t_gen);
-  const int W = train[0].camera.width, H = train[0].camera.height;
-  std::printf("subject: %d body vertices, %zu garment meshes, %d frames rendered at %d px in %.1f s; training at %dx%d\n",
-              body.num_verts, scene.subject.meshes.size(), int(scene.truth.size()), o.synth.size, gen_seconds, W, H);
+  return f;
+}
 
-  TrainInput input;
-  input.body = &body;
-  input.frames = std::move(train);
-  input.premultiplied = resolve_premultiplied(cfg.premultiplied, true);  // `haha synth` writes "premultiplied": true
-  double prefit_seconds = 0;
-  if (cfg.s0.steps > 0) {
-    const auto t0 = Clock::now();
-    fit_poses_to_masks(body, input.frames, cfg.s0);
-    prefit_seconds = seconds_since(t0);
-    std::printf("pose pre-fit to the masks: %d steps per frame, %.1f s\n", cfg.s0.steps, prefit_seconds);
-  }
-  Trainer trainer(cfg, std::move(input), device);
-
-  StageRow stages[3] = {{"1 Gaussians", cfg.s1.steps}, {"2 texture", cfg.s2.steps}, {"3 filtering", cfg.s3.steps}};
+// The three stages as `haha train` runs them, a progress line every twentieth of the run
+// and every 10 s; the time and final Gaussian count of each stage.
+std::array<StageRow, 3> train_stages(Trainer& trainer, const TrainConfig& cfg) {
+  std::array<StageRow, 3> stages = {
+      StageRow{"1 Gaussians", cfg.s1.steps}, StageRow{"2 texture", cfg.s2.steps}, StageRow{"3 filtering", cfg.s3.steps}};
   const int64_t total = cfg.total_steps();
   auto last_line = Clock::now();
   TrainLoopHooks hooks;
-  hooks.print_line = [&](const StepReport&, bool stage_end) {  // every twentieth of the run, and every 10 s
+  hooks.print_line = [&](const StepReport&, bool stage_end) {
     const int64_t done = trainer.completed_steps();
     const bool twentieth = (done * 20) / total != ((done - 1) * 20) / total;
     if (!(twentieth || stage_end || seconds_since(last_line) >= 10)) return false;
@@ -277,85 +276,139 @@ int run(const Options& o) {
     if (stages[s].steps == 0) stages[s].gaussians = s > 0 ? stages[s - 1].gaussians : trainer.stage1_avatar().gaussians.size();
   }
   stages[2].gaussians = trainer.num_gaussians();
-  double train_seconds = 0;
-  for (const StageRow& s : stages) train_seconds += s.seconds;
+  return stages;
+}
 
+void print_stage_table(const BenchNumbers& b, const TrainConfig& cfg) {
+  const int64_t total = cfg.total_steps();
   std::printf("\n%-14s %8s %10s %10s %10s\n", "stage", "steps", "seconds", "ms/step", "Gaussians");
-  for (const StageRow& s : stages)
+  for (const StageRow& s : b.stages)
     std::printf("%-14s %8d %10.2f %10s %10d\n", s.name, s.steps, s.seconds, ms_per_step(s).c_str(), s.gaussians);
-  std::printf("%-14s %8lld %10.2f\n", "total", static_cast<long long>(total), train_seconds);
-  if (cfg.s0.steps > 0) std::printf("pose pre-fit: %.2f s (not in the total)\n", prefit_seconds);
-  std::printf("subject generation: %.2f s (not in the total)\n", gen_seconds);
-  if (trainer.skipped_steps() > 0)
-    std::printf("skipped (non-finite) steps: %lld\n", static_cast<long long>(trainer.skipped_steps()));
+  std::printf("%-14s %8lld %10.2f\n", "total", static_cast<long long>(total), b.train_seconds);
+  if (cfg.s0.steps > 0) std::printf("pose pre-fit: %.2f s (not in the total)\n", b.prefit_seconds);
+  std::printf("subject generation: %.2f s (not in the total)\n", b.gen_seconds);
+  if (b.skipped_steps > 0) std::printf("skipped (non-finite) steps: %lld\n", static_cast<long long>(b.skipped_steps));
+}
 
+// Mesh only, full Gaussians and HAHA on the test frames as `haha eval` scores them, each
+// row printed as it is done.
+std::vector<EvalRow> evaluate_avatars(const Trainer& trainer, const TrainConfig& cfg, const std::vector<TrainFrame>& test) {
   std::vector<EvalRow> eval;
-  double eval_seconds = 0;
+  const Avatar filtered = trainer.avatar(), full = trainer.stage1_avatar();
+  EvalOptions opt;  // `haha eval`'s defaults on a black background, without its pose optimisation
+  opt.tto_steps = 0;
+  opt.premultiplied = resolve_premultiplied(cfg.premultiplied, true);
+  std::vector<EvalVariant> variants = paper_variants(filtered, full);
+  variants.erase(variants.begin() + 2);  // the naive merge: not needed for timing runs
+  std::printf("\nevaluation: %zu test frames (novel poses), CPU, no test-time pose optimisation\n", test.size());
+  std::printf("%-14s %8s %8s %10s %10s\n", "variant", "PSNR", "SSIM", "Gaussians", "ms/frame");
+  for (const EvalVariant& v : variants) {
+    const VariantEval e = evaluate_variant(v, test, opt);
+    eval.push_back({v.name, e.psnr, e.ssim, e.render_ms, e.num_gaussians});
+    std::printf("%-14s %8.2f %8.4f %10d %10.2f\n", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians, e.render_ms);
+    std::fflush(stdout);
+  }
+  return eval;
+}
+
+std::string bench_json(const Options& o, const TrainConfig& cfg, Device device, const std::string& gpu,
+                       const BenchNumbers& b) {
+  std::string j = "{\n";
+  auto field = [&](const std::string& key, const std::string& value, bool last = false) {
+    j += "  " + json_string(key) + ": " + value + (last ? "\n" : ",\n");
+  };
+  field("subject", std::to_string(o.synth.subject));
+  field("size", std::to_string(o.synth.size));
+  field("train_frames", std::to_string(o.synth.train_frames));
+  field("test_frames", std::to_string(o.synth.test_frames));
+  field("seed", std::to_string(o.synth.seed));
+  field("fit_noise_pose", json_number(o.synth.fit_noise.pose));
+  field("fit_noise_transl", json_number(o.synth.fit_noise.transl));
+  field("preset", json_string(cfg.preset));
+  std::string overrides = "[";
+  for (size_t i = 0; i < o.sets.size(); ++i) overrides += (i ? ", " : "") + json_string(o.sets[i]);
+  field("overrides", overrides + "]");
+  field("device", json_string(device_name(device)));
+  field("gpu", gpu.empty() ? "null" : json_string(gpu));
+  field("threads", std::to_string(num_threads()));
+  field("resolution", "[" + std::to_string(b.width) + ", " + std::to_string(b.height) + "]");
+  field("generate_seconds", json_number(b.gen_seconds));
+  field("prefit_seconds", json_number(b.prefit_seconds));
+  std::string st = "[\n";
+  for (int s = 0; s < 3; ++s) {
+    const StageRow& r = b.stages[s];
+    st += "    {\"stage\": " + std::to_string(s + 1) + ", \"steps\": " + std::to_string(r.steps) +
+          ", \"seconds\": " + json_number(r.seconds) +
+          ", \"ms_per_step\": " + (r.steps > 0 ? json_number(1000.0 * r.seconds / r.steps) : "null") +
+          ", \"gaussians\": " + std::to_string(r.gaussians) + (s < 2 ? "},\n" : "}\n");
+  }
+  field("stages", st + "  ]");
+  field("train_seconds", json_number(b.train_seconds));
+  field("skipped_steps", std::to_string(b.skipped_steps));
+  if (o.eval) {
+    const std::vector<EvalRow>& eval = b.eval;
+    std::string ev = "{\"frames\": " + std::to_string(b.test_frames) + ", \"tto_steps\": 0, \"seconds\": " +
+                     json_number(b.eval_seconds) + ", \"variants\": [\n";
+    for (size_t i = 0; i < eval.size(); ++i)
+      ev += "    {\"name\": " + json_string(eval[i].name) + ", \"psnr\": " + json_number(eval[i].psnr) +
+            ", \"ssim\": " + json_number(eval[i].ssim) + ", \"gaussians\": " + std::to_string(eval[i].gaussians) +
+            ", \"render_ms\": " + json_number(eval[i].render_ms) + (i + 1 < eval.size() ? "},\n" : "}\n");
+    field("eval", ev + "  ]}", true);
+  } else {
+    field("eval", "null", true);
+  }
+  return j + "}\n";
+}
+
+int run(const Options& o) {
+  set_num_threads(o.threads);
+  const TrainConfig cfg = checked_config(o);
+  const Device device = parse_device(o.device);  // a missing GPU fails here, before any work
+  const std::string gpu = device == Device::cuda ? gpu_description() : "";
+  std::string sets;
+  for (const std::string& kv : o.sets) sets += " " + kv;
+  std::printf("train_bench: subject %d, %d px, %d train + %d test frames, preset %s%s, device %s%s%s, %d threads\n",
+              o.synth.subject, o.synth.size, o.synth.train_frames, o.synth.test_frames, cfg.preset.c_str(),
+              sets.c_str(), device_name(device), gpu.empty() ? "" : ": ", gpu.c_str(), num_threads());
+  std::fflush(stdout);
+
+  BenchNumbers b;
+  const auto t_gen = Clock::now();
+  const BodyModel body = make_procedural_body({BodyResolution::full, o.synth.seed});
+  SubjectFrames frames = render_subject_frames(body, o, cfg);
+  b.gen_seconds = seconds_since(t_gen);
+  b.width = frames.train[0].camera.width;
+  b.height = frames.train[0].camera.height;
+  std::printf("subject: %d body vertices, %zu garment meshes, %d frames rendered at %d px in %.1f s; training at %dx%d\n",
+              body.num_verts, frames.scene.subject.meshes.size(), int(frames.scene.truth.size()), o.synth.size,
+              b.gen_seconds, b.width, b.height);
+
+  TrainInput input;
+  input.body = &body;
+  input.frames = std::move(frames.train);
+  input.premultiplied = resolve_premultiplied(cfg.premultiplied, true);  // `haha synth` writes "premultiplied": true
+  if (cfg.s0.steps > 0) {
+    const auto t0 = Clock::now();
+    fit_poses_to_masks(body, input.frames, cfg.s0);
+    b.prefit_seconds = seconds_since(t0);
+    std::printf("pose pre-fit to the masks: %d steps per frame, %.1f s\n", cfg.s0.steps, b.prefit_seconds);
+  }
+  Trainer trainer(cfg, std::move(input), device);
+  b.stages = train_stages(trainer, cfg);
+  for (const StageRow& s : b.stages) b.train_seconds += s.seconds;
+  b.skipped_steps = trainer.skipped_steps();
+  print_stage_table(b, cfg);
+
   if (o.eval) {
     const auto t0 = Clock::now();
-    const Avatar filtered = trainer.avatar(), full = trainer.stage1_avatar();
-    EvalOptions opt;  // `haha eval`'s defaults on a black background, without its pose optimisation
-    opt.tto_steps = 0;
-    opt.premultiplied = resolve_premultiplied(cfg.premultiplied, true);
-    std::vector<EvalVariant> variants = paper_variants(filtered, full);
-    variants.erase(variants.begin() + 2);  // the naive merge: not needed for timing runs
-    std::printf("\nevaluation: %zu test frames (novel poses), CPU, no test-time pose optimisation\n", test.size());
-    std::printf("%-14s %8s %8s %10s %10s\n", "variant", "PSNR", "SSIM", "Gaussians", "ms/frame");
-    for (const EvalVariant& v : variants) {
-      const VariantEval e = evaluate_variant(v, test, opt);
-      eval.push_back({v.name, e.psnr, e.ssim, e.render_ms, e.num_gaussians});
-      std::printf("%-14s %8.2f %8.4f %10d %10.2f\n", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians, e.render_ms);
-      std::fflush(stdout);
-    }
-    eval_seconds = seconds_since(t0);
-    std::printf("evaluation: %.2f s\n", eval_seconds);
+    b.test_frames = frames.test.size();
+    b.eval = evaluate_avatars(trainer, cfg, frames.test);
+    b.eval_seconds = seconds_since(t0);
+    std::printf("evaluation: %.2f s\n", b.eval_seconds);
   }
 
   if (!o.json.empty()) {
-    std::string j = "{\n";
-    auto field = [&](const std::string& key, const std::string& value, bool last = false) {
-      j += "  " + json_string(key) + ": " + value + (last ? "\n" : ",\n");
-    };
-    field("subject", std::to_string(o.synth.subject));
-    field("size", std::to_string(o.synth.size));
-    field("train_frames", std::to_string(o.synth.train_frames));
-    field("test_frames", std::to_string(o.synth.test_frames));
-    field("seed", std::to_string(o.synth.seed));
-    field("fit_noise_pose", json_number(o.synth.fit_noise.pose));
-    field("fit_noise_transl", json_number(o.synth.fit_noise.transl));
-    field("preset", json_string(cfg.preset));
-    std::string overrides = "[";
-    for (size_t i = 0; i < o.sets.size(); ++i) overrides += (i ? ", " : "") + json_string(o.sets[i]);
-    field("overrides", overrides + "]");
-    field("device", json_string(device_name(device)));
-    field("gpu", gpu.empty() ? "null" : json_string(gpu));
-    field("threads", std::to_string(num_threads()));
-    field("resolution", "[" + std::to_string(W) + ", " + std::to_string(H) + "]");
-    field("generate_seconds", json_number(gen_seconds));
-    field("prefit_seconds", json_number(prefit_seconds));
-    std::string st = "[\n";
-    for (int s = 0; s < 3; ++s) {
-      const StageRow& r = stages[s];
-      st += "    {\"stage\": " + std::to_string(s + 1) + ", \"steps\": " + std::to_string(r.steps) +
-            ", \"seconds\": " + json_number(r.seconds) +
-            ", \"ms_per_step\": " + (r.steps > 0 ? json_number(1000.0 * r.seconds / r.steps) : "null") +
-            ", \"gaussians\": " + std::to_string(r.gaussians) + (s < 2 ? "},\n" : "}\n");
-    }
-    field("stages", st + "  ]");
-    field("train_seconds", json_number(train_seconds));
-    field("skipped_steps", std::to_string(trainer.skipped_steps()));
-    if (o.eval) {
-      std::string ev = "{\"frames\": " + std::to_string(test.size()) + ", \"tto_steps\": 0, \"seconds\": " +
-                       json_number(eval_seconds) + ", \"variants\": [\n";
-      for (size_t i = 0; i < eval.size(); ++i)
-        ev += "    {\"name\": " + json_string(eval[i].name) + ", \"psnr\": " + json_number(eval[i].psnr) +
-              ", \"ssim\": " + json_number(eval[i].ssim) + ", \"gaussians\": " + std::to_string(eval[i].gaussians) +
-              ", \"render_ms\": " + json_number(eval[i].render_ms) + (i + 1 < eval.size() ? "},\n" : "}\n");
-      field("eval", ev + "  ]}", true);
-    } else {
-      field("eval", "null", true);
-    }
-    write_text_file(o.json, j + "}\n");
+    write_text_file(o.json, bench_json(o, cfg, device, gpu, b));
     std::printf("wrote %s\n", o.json.c_str());
   }
   return 0;
