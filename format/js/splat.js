@@ -161,27 +161,45 @@ export class SplatProjector {
   }
 }
 
-// --- GLSL (ES 3.00 functions, no in / out: any engine's dialect includes them) ---
+// --- GLSL (ES 3.00, in any engine's dialect) ---
 
-// The vertex of corner `corner` (gl_VertexID % CORNERS: bit 0 = right, bit 1 = bottom) of a
-// splat's pixel box (x0, y0, x1 + 1, y1 + 1), and a pixel (rows top-down) as clip x, y of a
-// viewport of `size` pixels.
+// The flat varyings a splat's fragments read, declared with qualifier q ('out' / 'in', or
+// Babylon's 'varying'): centre (pixels), conic, opacity and power_min, colour.
+export function splatVaryings(q) {
+  return `flat ${q} vec2 vMean;
+flat ${q} vec3 vConic;
+flat ${q} vec2 vParams;
+flat ${q} vec3 vColor;`;
+}
+
+// Vertex shader functions (after splatVaryings): the vertex of corner `corner`
+// (gl_VertexID % CORNERS: bit 0 = right, bit 1 = bottom) of a splat's pixel box (x0, y0,
+// x1 + 1, y1 + 1); a pixel (rows top-down) as clip x, y of a viewport of `size` pixels; the
+// varyings from a splat's vec4s 1 to 3 (mean and conic.ab | conic.c, opacity, power_min, z |
+// colour).
 export const SPLAT_GLSL_VERTEX = /* glsl */ `
 vec2 hahaSplatCorner(vec4 box, int corner) {
   return mix(box.xy, box.zw, vec2(float(corner & 1), float(corner >> 1)));
 }
 vec2 hahaPixelToClip(vec2 pix, vec2 size) {
   return vec2(2.0 * pix.x / size.x - 1.0, 1.0 - 2.0 * pix.y / size.y);
+}
+void hahaSplatVaryings(vec4 meanConic, vec4 params, vec4 color) {
+  vMean = meanConic.xy;
+  vConic = vec3(meanConic.zw, params.x);
+  vParams = params.yz;
+  vColor = color.rgb;
 }`;
 
-// libhaha/render/gaussian_kernels.h pixel_alpha: the alpha of a splat (conic ca, cb, cc,
-// opacity, power_min) at offset d (pixels) from its centre; discards the fragment below the
-// cut-offs.
+// Fragment shader function (after splatVaryings): libhaha/render/gaussian_kernels.h
+// pixel_alpha, the splat's alpha at `pixel` (the fragment's centre, pixels, rows top-down);
+// discards the fragment below the cut-offs.
 export const SPLAT_GLSL_FRAGMENT = /* glsl */ `
-float hahaSplatAlpha(vec2 d, vec3 conic, float opacity, float powerMin) {
-  float power = -0.5 * (conic.x * d.x * d.x + conic.z * d.y * d.y) - conic.y * d.x * d.y;
-  if (power < powerMin) discard;
-  float alpha = min(0.99, opacity * exp(power));
+float hahaSplatAlpha(vec2 pixel) {
+  vec2 d = pixel - vMean;
+  float power = -0.5 * (vConic.x * d.x * d.x + vConic.z * d.y * d.y) - vConic.y * d.x * d.y;
+  if (power < vParams.y) discard;
+  float alpha = min(0.99, vParams.x * exp(power));
   if (alpha < 1.0 / 255.0) discard;
   return alpha;
 }`;
@@ -229,10 +247,6 @@ export class SplatTexture {
 // and alpha) }.
 export function splatLayerShaders(dialect) {
   const { vertexOut, fragmentIn, vertexHead = '', clipW = '1.0', fragmentHead = '', writeColor } = dialect;
-  const varyings = (q) => `flat ${q} vec2 vMean;
-flat ${q} vec3 vConic;
-flat ${q} vec2 vParams;
-flat ${q} vec3 vColor;`;
   const vertex = /* glsl */ `
 precision highp float;
 precision highp int;
@@ -240,7 +254,7 @@ precision highp sampler2D;
 ${vertexHead}
 uniform sampler2D splats;  // 4 texels per splat: rect | mean, conic.ab | conic.c, opacity, power_min, z | colour, ndc z
 uniform vec4 hahaViewport; // x, y, width, height (pixels)
-${varyings(vertexOut)}
+${splatVaryings(vertexOut)}
 ${SPLAT_GLSL_VERTEX}
 void main() {
   int s = gl_VertexID / 4, corner = gl_VertexID % 4;
@@ -249,20 +263,16 @@ void main() {
   vec4 t2 = texelFetch(splats, b + ivec2(2, 0), 0), t3 = texelFetch(splats, b + ivec2(3, 0), 0);
   vec2 pix = hahaSplatCorner(t0, corner);
   gl_Position = vec4(hahaPixelToClip(pix, hahaViewport.zw), t3.w, ${clipW});
-  vMean = t1.xy;
-  vConic = vec3(t1.zw, t2.x);
-  vParams = t2.yz;
-  vColor = t3.rgb;
+  hahaSplatVaryings(t1, t2, t3);
 }`;
   const fragment = /* glsl */ `
 precision highp float;
 uniform vec4 hahaViewport;
-${varyings(fragmentIn)}
+${splatVaryings(fragmentIn)}
 ${fragmentHead}
 ${SPLAT_GLSL_FRAGMENT}
 void main() {
-  vec2 d = vec2(gl_FragCoord.x - hahaViewport.x, hahaViewport.w - (gl_FragCoord.y - hahaViewport.y)) - vMean;
-  float alpha = hahaSplatAlpha(d, vConic, vParams.x, vParams.y);
+  float alpha = hahaSplatAlpha(vec2(gl_FragCoord.x - hahaViewport.x, hahaViewport.w - (gl_FragCoord.y - hahaViewport.y)));
   ${writeColor}
 }`;
   return { vertex, fragment };

@@ -15,7 +15,7 @@
 //                     as haha render's PNGs; then copied to the canvas (reading the canvas
 //                     back stalls Chromium for hundreds of ms, the 8-bit target does not)
 import * as THREE from 'three';
-import { STRIDE, CORNERS, SPLAT_GLSL_VERTEX, SPLAT_GLSL_FRAGMENT, quadIndices } from '../../../format/js/splat.js';
+import { STRIDE, CORNERS, splatVaryings, SPLAT_GLSL_VERTEX, SPLAT_GLSL_FRAGMENT, quadIndices } from '../../../format/js/splat.js';
 
 const MESH_VS = /* glsl */ `
 #include <common>
@@ -184,19 +184,15 @@ in vec4 meanConic; // mx, my, ca, cb
 in vec4 params;  // cc, opacity, power_min, z
 in vec4 color;
 uniform vec2 viewport;
-flat out vec2 vMean;
-flat out vec3 vConic;
-flat out vec3 vParams;
-flat out vec3 vColor;
+${splatVaryings('out')}
+flat out float vZ;
 ${SPLAT_GLSL_VERTEX}
 void main() {
   int corner = gl_VertexID % 4;  // 4 vertices per Gaussian (splat.js)
   vec2 pix = hahaSplatCorner(rect, corner);
   gl_Position = vec4(hahaPixelToClip(pix, viewport), 0.0, 1.0);
-  vMean = meanConic.xy;
-  vConic = vec3(meanConic.zw, params.x);
-  vParams = params.yzw;
-  vColor = color.rgb;
+  hahaSplatVaryings(meanConic, params, color);
+  vZ = params.w;
 }`;
 
 // render/gaussian_kernels.h pixel_alpha (splat.js) + gaussian_composite.h composite_step's depth test.
@@ -206,17 +202,14 @@ precision highp sampler2D;
 uniform sampler2D meshTex;
 uniform vec2 viewport;
 uniform float margin;
-flat in vec2 vMean;
-flat in vec3 vConic;
-flat in vec3 vParams;
-flat in vec3 vColor;
+${splatVaryings('in')}
+flat in float vZ;
 out vec4 fragColor;
 ${SPLAT_GLSL_FRAGMENT}
 void main() {
-  vec2 d = vec2(gl_FragCoord.x, viewport.y - gl_FragCoord.y) - vMean;
-  float alpha = hahaSplatAlpha(d, vConic, vParams.x, vParams.y);
+  float alpha = hahaSplatAlpha(vec2(gl_FragCoord.x, viewport.y - gl_FragCoord.y));
   float D = texelFetch(meshTex, ivec2(gl_FragCoord.xy), 0).a;
-  if (D > 0.0 && vParams.z > D + margin) discard;
+  if (D > 0.0 && vZ > D + margin) discard;
   fragColor = vec4(vColor * alpha, alpha);
 }`;
 
