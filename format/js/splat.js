@@ -2,10 +2,11 @@
 // samples/web: the per-Gaussian part of the 3DGS EWA splatting of
 // libhaha/render/gaussian_kernels.h (project_gaussian, plain / not antialiased, as the avatar
 // render uses it), in float64, and the depth sort of gaussian_raster.cpp (by camera z of the
-// centre, ties by index) (SplatProjector); the GLSL of the per-pixel part (alpha = min(0.99,
-// o exp(power)), skipped below 1/255) and of the quads (SPLAT_GLSL_VERTEX / _FRAGMENT); the
-// engines' splat layer in an engine's GLSL dialect (splatLayerShaders) with its splat texture
-// (SplatTexture) and camera (openCvFromGl). The depth test against the mesh and the
+// centre, ties by index): SplatProjector. The GLSL of the quads, of the varyings they pass and
+// of the per-pixel part (alpha = min(0.99, o exp(power)), skipped below 1/255):
+// SPLAT_GLSL_VERTEX, splatVaryings, SPLAT_GLSL_FRAGMENT. The engines' splat layer in an
+// engine's GLSL dialect (splatLayerShaders) with its splat texture (SplatTexture) and camera
+// (openCvFromGl). The depth test against the mesh and the
 // compositing are the engine's (blending) or the renderer's (samples/web/lib/renderer.js).
 //
 // Camera: OpenCV pinhole, { width, height, fx, fy, cx, cy, R (row-major 3 x 3,
