@@ -6,8 +6,8 @@
 // of the per-pixel part (alpha = min(0.99, o exp(power)), skipped below 1/255):
 // SPLAT_GLSL_VERTEX, splatVaryings, SPLAT_GLSL_FRAGMENT. The engines' splat layer in an
 // engine's GLSL dialect (splatLayerShaders) with its splat texture (SplatTexture) and camera
-// (openCvFromGl). The depth test against the mesh and the
-// compositing are the engine's (blending) or the renderer's (samples/web/lib/renderer.js).
+// (openCvFromGl). The depth test against the mesh and the compositing are the engine's
+// (blending) or the renderer's (samples/web/lib/renderer.js).
 //
 // Camera: OpenCV pinhole, { width, height, fx, fy, cx, cy, R (row-major 3 x 3,
 // world -> camera), t (3), near, far }, pixel centres at +0.5.
