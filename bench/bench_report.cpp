@@ -45,6 +45,18 @@ std::string short_num(double v) {
 
 using Plots = std::vector<std::pair<std::string, PlotSpec>>;
 
+// A plot's title with `sub` (the machine and the run) under it, its axes and where its key goes.
+PlotSpec plot_spec(const std::string& title, const std::string& sub, const std::string& xlabel,
+                   const std::string& ylabel, const std::string& key) {
+  PlotSpec p;
+  p.title = title;
+  p.subtitle = sub;
+  p.xlabel = xlabel;
+  p.ylabel = ylabel;
+  p.key = key;
+  return p;
+}
+
 // Storage is linear in the count (train/evaluate.h storage_bytes): the line read off two
 // points with different counts; 0 per Gaussian when there are no two.
 struct StorageLine {
@@ -139,19 +151,16 @@ void add_stage_series(const BenchResult& r, bool psnr, const HahaPoint& haha, Pl
 }
 
 PlotSpec filter_budget_plot(const BenchResult& r, const std::string& sub, bool psnr, const StorageLine& line) {
-  PlotSpec p;
-  p.title = std::string("Gaussian budget against error (") + (psnr ? "PSNR" : "SSIM") + " on novel poses)";
-  p.subtitle = sub;
   // Log count axis: the knee sits at a few thousand of tens of thousands. Storage is
   // linear in the count; its formula goes in the axis label (gnuplot cannot link a
   // second axis to a log axis).
-  p.xlabel = "Gaussians kept (count, log scale)";
+  PlotSpec p = plot_spec(std::string("Gaussian budget against error (") + (psnr ? "PSNR" : "SSIM") + " on novel poses)",
+                         sub, "Gaussians kept (count, log scale)",
+                         psnr ? "PSNR on test frames (dB)" : "SSIM on test frames (1 = identical)", "top left");
   if (line.kb_per_gaussian > 0)
     p.xlabel += f("; storage = %.0f KB texture", line.kb_offset) +
                 f(" + %.3f KB per Gaussian (float32)", line.kb_per_gaussian);
-  p.ylabel = psnr ? "PSNR on test frames (dB)" : "SSIM on test frames (1 = identical)";
   p.logx = true;
-  p.key = "top left";
   double xlo = INFINITY, xhi = 0;
   for (const FilterPoint& fp : r.filtering)
     if (fp.q.gaussians > 0) xlo = std::min(xlo, double(fp.q.gaussians)), xhi = std::max(xhi, double(fp.q.gaussians));
@@ -198,12 +207,8 @@ std::string texture_point_label(const PackPoint& pp) {
 }
 
 PlotSpec pack_size_plot(const BenchResult& r, const std::string& sub) {
-  PlotSpec p;
-  p.title = "Packing against error: .glb size vs. fidelity to the original";
-  p.subtitle = sub;
-  p.xlabel = "avatar file size (KB)";
-  p.ylabel = "PSNR of unpacked renders vs. original renders (dB)";
-  p.key = "bottom right";
+  PlotSpec p = plot_spec("Packing against error: .glb size vs. fidelity to the original", sub, "avatar file size (KB)",
+                         "PSNR of unpacked renders vs. original renders (dB)", "bottom right");
   // One series per texture codec / quality (sizes joined, labelled), one for the bits.
   PlotSeries bits;
   bits.label = "Gaussian attributes at N bits (texture png)";
@@ -253,12 +258,7 @@ PlotSpec pack_size_plot(const BenchResult& r, const std::string& sub) {
 }
 
 PlotSpec pack_time_plot(const BenchResult& r, const std::string& sub) {
-  PlotSpec d;
-  d.title = "Packing and decoding time per setting";
-  d.subtitle = sub;
-  d.xlabel = "pack setting";
-  d.ylabel = "time (ms)";
-  d.key = "top right";
+  PlotSpec d = plot_spec("Packing and decoding time per setting", sub, "pack setting", "time (ms)", "top right");
   d.height = 680;
   d.xtic_rotate = 35;
   PlotSeries dec, pk;
@@ -290,13 +290,9 @@ std::string render_device(const RenderTiming& t) {
 }
 
 void add_render_resolution_plot(const BenchResult& r, const std::string& sub, Plots& plots) {
-  PlotSpec p;
-  p.title = "Render time against resolution";
-  p.subtitle = sub;
-  p.xlabel = "image side (pixels, square image; log scale)";
-  p.ylabel = "time per frame, LBS + render (ms, median; log scale)";
+  PlotSpec p = plot_spec("Render time against resolution", sub, "image side (pixels, square image; log scale)",
+                         "time per frame, LBS + render (ms, median; log scale)", "top left");
   p.logx = p.logy = true;
-  p.key = "top left";
   std::map<std::string, PlotSeries> series;
   std::set<int> resolutions;
   for (const RenderTiming& t : r.render) {
@@ -323,12 +319,9 @@ void add_render_count_plot(const BenchResult& r, const std::string& sub, Plots& 
   size_t best_n = 0;
   for (const RenderTiming& t : r.render)
     if (t.sweep == "gaussians") best_res = t.resolution, ++best_n;
-  PlotSpec c;
-  c.title = "Render time against Gaussian count (" + std::to_string(best_res) + " x " + std::to_string(best_res) + " px, with the mesh)";
-  c.subtitle = sub;
-  c.xlabel = "Gaussians rendered (count)";
-  c.ylabel = "time per frame, LBS + render (ms, median)";
-  c.key = "top left";
+  PlotSpec c = plot_spec("Render time against Gaussian count (" + std::to_string(best_res) + " x " +
+                             std::to_string(best_res) + " px, with the mesh)",
+                         sub, "Gaussians rendered (count)", "time per frame, LBS + render (ms, median)", "top left");
   std::map<std::string, PlotSeries> cs;
   for (const RenderTiming& t : r.render) {
     if (t.sweep != "gaussians") continue;
@@ -352,13 +345,9 @@ void add_render_count_plot(const BenchResult& r, const std::string& sub, Plots& 
 
 // 4: training time against quality.
 PlotSpec training_quality_plot(const BenchResult& r, const std::string& sub) {
-  PlotSpec p;
-  p.title = "Training time against quality (the trainer's stage table)";
-  p.subtitle = sub;
-  p.xlabel = "training wall time needed for the variant (s)";
-  p.ylabel = "PSNR on test frames (dB)";
+  PlotSpec p = plot_spec("Training time against quality (the trainer's stage table)", sub,
+                         "training wall time needed for the variant (s)", "PSNR on test frames (dB)", "bottom right");
   p.y2label = "SSIM on test frames (1 = identical)";
-  p.key = "bottom right";
   PlotSeries ps, ss;
   ps.label = "PSNR (left axis)";
   ss.label = "SSIM (right axis)";
