@@ -78,9 +78,10 @@ StorageLine storage_line(const std::vector<FilterPoint>& filtering) {
 // labelled there, not twice.
 struct HahaPoint {
   const StageRow* row = nullptr;  // the stage table's "HAHA filtered"
-  bool on_rerun = false;  // "= HAHA as trained" goes on the re-run point at the run's own
-                          // weight when there is one, else on the pruning point at the trainer's threshold
-  bool shown = false;     // a filtering point carries it
+  // "= HAHA as trained" goes on the re-run point at the run's own weight when there is
+  // one, else on the pruning point at the trainer's threshold.
+  bool on_rerun = false;
+  bool shown = false;  // a filtering point carries the label
   bool is(const FilterPoint& fp) const {
     return row && fp.q.gaussians == row->q.gaussians && fp.q.psnr == row->q.psnr;
   }
