@@ -18,7 +18,9 @@ _busy = False
 
 
 def _quat_from_matrix(m):
-    """Unit quaternion (w, x, y, z) of a rotation matrix (float64, Shepperd's method)."""
+    """Unit quaternion (w, x, y, z) of a rotation matrix (float64, Shepperd's method).
+    Not mathutils' to_quaternion(): that one is single precision, and the pose it gives
+    feeds the runtime's reposing, which the tests hold to 0.1 mm."""
     t = np.trace(m)
     cands = [t, m[0, 0], m[1, 1], m[2, 2]]
     i = int(np.argmax(cands))
