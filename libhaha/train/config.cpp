@@ -363,14 +363,13 @@ std::vector<std::string> estimated_fit_settings(const std::string& preset) {
   // Ten times the preset's pose rate (tiny: 5e-4 -> 0.005, the measured value; paper:
   // 2e-4 -> 0.002, the same rule, unmeasured): stage 1 repairs fits that are off. Stage 3
   // keeps Gaussians up to 1 cm behind the fitted mesh visible (an estimated mesh often sits
-  // in front of the true surface), which keeps more of them: at 128 px the doubled opacity
-  // weight brings them back under 40% (docs/results.md "Real footage"). At 512 px
-  // (standard) the filter keeps about 30% with the preset's own weight, and doubling it
-  // costs 0.09 dB on the noisy sample (docs/results.md "Sharp at 512 px").
+  // in front of the true surface) and doubles the opacity weight, so it keeps fewer of them
+  // (measured at tiny: docs/results.md "Real footage"; at 512 px the preset's own weight
+  // gained 0.07-0.09 dB but kept 49% of a tennis clip's Gaussians in 356 kB: "Sharp at 512 px").
   TrainConfig t = p;
   t.s1.lr_pose = 10 * p.s1.lr_pose;
   t.s3.depth_margin = 0.01;
-  if (preset != "standard") t.s3.w.opacity = 2 * p.s3.w.opacity;
+  t.s3.w.opacity = 2 * p.s3.w.opacity;
   std::vector<std::string> out = {"s0.steps=40"};
   for (const auto& [k, v] : config_to_pairs(t))
     if (k == "s1.lr.pose" || k == "s3.depth_margin" || k == "s3.w.opacity") out.push_back(k + "=" + v);
