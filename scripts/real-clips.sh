@@ -56,7 +56,7 @@ say() { echo "real-clips: [$1] $2 ($((SECONDS - t0)) s)"; }
 # DIR/STEP.seconds; on failure one line naming the clip and the step, DIR/failed, status 1.
 step() {
   local clip="$1" dir="$2" name="$3"; shift 3
-  local s=$SECONDS rc=0
+  local s=$EPOCHREALTIME rc=0
   say "$clip" "$name: ${*#"$repo/"}"
   "$@" > "$dir/$name.log" 2>&1 || rc=$?
   if [ $rc -ne 0 ]; then
@@ -70,7 +70,7 @@ step() {
     echo "real-clips: FAILED: clip $clip, step $name ($how): ${why:-no output} (log $dir/$name.log)" >&2
     return 1
   fi
-  echo $((SECONDS - s)) > "$dir/$name.seconds"
+  echo "$EPOCHREALTIME $s" | awk '{ printf "%.1f\n", $1 - $2 }' > "$dir/$name.seconds"
 }
 
 # run_clip NAME PATH [fit-video options...]
@@ -122,9 +122,10 @@ def load(p):
     except (OSError, ValueError): return None
 def mins(d, step):
     try:
-        with open(os.path.join(d, step + ".seconds")) as f: return "%.1f" % (int(f.read()) / 60)
+        with open(os.path.join(d, step + ".seconds")) as f: m = float(f.read()) / 60
+        return "%.1f" % m if m >= 0.095 else "%.2f" % m
     except (OSError, ValueError): return "-"
-rows, sheets, failed = [], [], []
+rows, sheets = [], []
 for n in names:
     d = os.path.join(out, n)
     fit, rep = load(os.path.join(d, "fit", "fit_report.json")), load(os.path.join(d, "run", "report.json"))
