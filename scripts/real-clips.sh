@@ -4,30 +4,31 @@
 # video's size, longer side up to 512 px), eval on the held-out frames at the training size,
 # pack; then one table of all clips in OUT/clips.md.
 #
-#   scripts/real-clips.sh LIST OUT [--threads N] [--haha build/cli/haha]
+#   scripts/real-clips.sh LIST OUT [--threads N] [--train "key=value ..."] [--haha build/cli/haha]
 #
 # LIST: one clip a line, "NAME PATH [fit-video options...]"; blank lines and lines starting
 # with # are skipped. Each clip writes OUT/NAME/fit, OUT/NAME/run (report.json, eval_sheet.png),
 # OUT/NAME/avatar.glb, OUT/NAME/<step>.log and OUT/NAME/<step>.seconds. A finished step is
 # reused, so a rerun resumes; a failed step stops its clip (OUT/NAME/failed says which and why)
-# and the suite goes on with the next. On a shared machine: nice -n 19 scripts/real-clips.sh ...
+# and the suite goes on with the next (a finished run is reused whatever --train says: give
+# another OUT, with OUT/NAME/fit linked to reuse fits). Shared machine: nice -n 19 ...
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
-list="" out="" threads="" haha="$repo/build/cli/haha"
+list="" out="" threads="" train_keys="" haha="$repo/build/cli/haha"
 die() { echo "real-clips: error: $1" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   case "$1" in
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
-    --threads|--haha)
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    --threads|--train|--haha)
       [ $# -ge 2 ] || die "$1: needs a value"
-      case "$1" in --threads) threads="$2" ;; --haha) haha="$2" ;; esac
+      case "$1" in --threads) threads="$2" ;; --train) train_keys="$2" ;; --haha) haha="$2" ;; esac
       shift 2 ;;
-    -*) die "$1: unknown option (usage: scripts/real-clips.sh LIST OUT [--threads N] [--haha PATH])" ;;
+    -*) die "$1: unknown option (usage: scripts/real-clips.sh LIST OUT [--threads N] [--train KEYS] [--haha PATH])" ;;
     *) if [ -z "$list" ]; then list="$1"; elif [ -z "$out" ]; then out="$1"; else die "$1: one LIST and one OUT only"; fi
        shift ;;
   esac
 done
-[ -n "$list" ] && [ -n "$out" ] || die "LIST OUT: missing (usage: scripts/real-clips.sh LIST OUT [--threads N] [--haha PATH])"
+[ -n "$list" ] && [ -n "$out" ] || die "LIST OUT: missing (usage: scripts/real-clips.sh LIST OUT [--threads N] [--train KEYS] [--haha PATH])"
 [ -r "$list" ] && [ ! -d "$list" ] || die "$list: not found"
 [ -x "$haha" ] || die "$haha: not built (cmake --build build --target haha, or give --haha)"
 [ -z "$threads" ] || case "$threads" in [1-9]|[1-9][0-9]) ;; *) die "--threads: '$threads' is not a number of threads" ;; esac
@@ -90,8 +91,9 @@ run_clip() {
     say "$clip" "train: reusing $d/run"
   else
     rm -rf "$d/run" "$d/avatar.glb"
+    # shellcheck disable=SC2086  # the keys are a word list on purpose
     step "$clip" "$d" train "$haha" train --data "$d/fit" --out "$d/run" --preset standard \
-      "${thr[@]+"${thr[@]}"}" || return 0
+      "${thr[@]+"${thr[@]}"}" $train_keys || return 0
   fi
   if [ -f "$d/run/report.json" ] && [ -f "$d/run/eval_sheet.png" ]; then
     say "$clip" "eval: reusing $d/run/report.json"
