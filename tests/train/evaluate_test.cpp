@@ -41,13 +41,19 @@ TEST(Evaluate, TheRenderingAvatarScoresPerfectlyAndLayersMatter) {
   EXPECT_GT(both.render_ms, 0.0);
 }
 
-TEST(Evaluate, TestTimePoseOptimisationRecoversAShiftedPose) {
-  const Avatar a = scene_truth();
-  std::vector<TrainFrame> f = scene_frames(a, 1);
+// One frame of the scene whose fitted translation is off by 2 cm / -1 cm (the pose to recover).
+std::vector<TrainFrame> shifted_frames(const Avatar& a, int size) {
+  std::vector<TrainFrame> f = scene_frames(a, 1, size);
   for (TrainFrame& x : f) {
     x.params.transl[0] += 0.02f;
     x.params.transl[1] -= 0.01f;
   }
+  return f;
+}
+
+TEST(Evaluate, TestTimePoseOptimisationRecoversAShiftedPose) {
+  const Avatar a = scene_truth();
+  const std::vector<TrainFrame> f = shifted_frames(a, 40);
   EvalOptions o;
   o.premultiplied = true;
   o.tto_steps = 0;
@@ -64,11 +70,7 @@ TEST(Evaluate, CoarseToFinePoseOptimisationRecoversTheShift) {
   // recovers most of the shift, and the losses it reports are the scored size's, the end
   // never above the start.
   const Avatar a = scene_truth();
-  std::vector<TrainFrame> f = scene_frames(a, 1, 64);
-  for (TrainFrame& x : f) {
-    x.params.transl[0] += 0.02f;
-    x.params.transl[1] -= 0.01f;
-  }
+  const std::vector<TrainFrame> f = shifted_frames(a, 64);
   EvalOptions o;
   o.premultiplied = true;
   o.tto_steps = 0;
