@@ -18,6 +18,7 @@
 #include "io/body_model_io.h"
 #include "io/smplx_params_io.h"
 #include "train/device.h"
+#include "train/photo_fit.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
 #include "train/train_loop.h"
@@ -45,6 +46,39 @@ void prefit_poses(const BodyModel& body, std::vector<TrainFrame>& frames, const 
   char line[160];
   std::snprintf(line, sizeof line, "pose pre-fit to the masks: %d frames x %d steps, silhouette loss %.4g -> %.4g (%.1f s)",
                 n, s0.steps, a / n, b / n, seconds());
+  log(line);
+}
+
+// The photometric pose fit against a textured mesh (train/photo_fit.h) with progress lines.
+// At s0.photo.resolution it works on its own copy of the training frames, read again from
+// the dataset, and hands the poses back.
+void photo_fit_poses(const BodyModel& body, Dataset& ds, std::vector<TrainFrame>& train_frames, bool premultiplied,
+                     const TrainConfig& cfg, const std::function<void(const std::string&)>& log) {
+  const int train_side = std::max(train_frames[0].camera.width, train_frames[0].camera.height);
+  const int side = cfg.s0.photo.resolution > 0 ? std::min(cfg.s0.photo.resolution, std::max(ds.width, ds.height)) : train_side;
+  std::vector<TrainFrame> own;
+  if (side != train_side) {
+    own = dataset_frames(ds, Split::train, side);
+    for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in `own`
+    for (size_t i = 0; i < own.size(); ++i) own[i].params = train_frames[i].params;
+  }
+  std::vector<TrainFrame>& frames = own.empty() ? train_frames : own;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  const PhotoFitReport fit =
+      fit_poses_to_images(body, frames, premultiplied, cfg.s0, cfg.seed, [&](int done, int total, double loss) {
+        char line[160];
+        std::snprintf(line, sizeof line, "[photometric pose fit] step %d/%d | loss %.4g | ETA %s", done, total, loss,
+                      format_duration(seconds() / done * (total - done)).c_str());
+        log(line);
+      });
+  for (size_t i = 0; i < own.size(); ++i) train_frames[i].params = own[i].params;
+  char line[200];
+  std::snprintf(line, sizeof line,
+                "photometric pose fit against a textured mesh: %d steps over %zu frames at %dx%d, image loss %.4g -> %.4g "
+                "(%.1f s)",
+                cfg.s0.photo.steps, frames.size(), frames[0].camera.width, frames[0].camera.height, fit.loss_start,
+                fit.loss_end, seconds());
   log(line);
 }
 
@@ -113,6 +147,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
   if (cfg.s0.steps > 0 && !opt.resume)  // a resumed run has its refined poses in the checkpoint
     prefit_poses(body, input.frames, cfg.s0, log);
+  if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(body, ds, input.frames, input.premultiplied, cfg, log);
   Trainer trainer(cfg, std::move(input), device);
   if (device == Device::cuda) log("device: cuda, " + gpu_description());
 

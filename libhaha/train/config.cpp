@@ -70,6 +70,20 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s0.w.prior", K::Double, &s0.w_prior, "pose pre-fit: weight of the squared change from the fit"});
   v.push_back({"s0.window", K::Int, &s0.window,
                "pose pre-fit: temporal prior, anchor = fit averaged over +-N consecutive frames (0 = own fit)"});
+  Stage0Config::Photo& ph = s0.photo;
+  v.push_back({"s0.photo.steps", K::Int, &ph.steps,
+               "photometric pose fit against a textured mesh before stage 1: steps in all, a frame each (0 = off)"});
+  v.push_back({"s0.photo.resolution", K::Int, &ph.resolution,
+               "photometric pose fit: longer image side (0 = the training resolution; at most the dataset's)"});
+  v.push_back({"s0.photo.warmup", K::Double, &ph.warmup, "photometric pose fit: share of steps training the texture alone"});
+  v.push_back({"s0.photo.lr", K::Double, &ph.lr, "photometric pose fit: pose lr"});
+  v.push_back({"s0.photo.lr.betas", K::Double, &ph.lr_betas, "photometric pose fit: lr of the shared shape (0 = as fitted)"});
+  v.push_back({"s0.photo.lr.texture", K::Double, &ph.lr_texture, "photometric pose fit: texture lr at the start"});
+  v.push_back({"s0.photo.lr.texture_final", K::Double, &ph.lr_texture_final, "photometric pose fit: texture lr at the end"});
+  v.push_back({"s0.photo.texture_size", K::Int, &ph.texture_size, "photometric pose fit: texture side at the finest level"});
+  v.push_back({"s0.photo.levels", K::String, &ph.levels, "photometric pose fit: image pyramid shares, coarsest first"});
+  v.push_back({"s0.photo.w.prior", K::Double, &ph.w_prior,
+               "photometric pose fit: weight of the squared change of the pose from its anchor"});
 
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});
@@ -325,6 +339,9 @@ void validate_config(const TrainConfig& c) {
   need(c.batch >= 1, "batch", "must be >= 1");
   need(c.resolution == 0 || c.resolution >= 16, "resolution", "must be 0 or >= 16");
   need(c.max_resolution == 0 || c.max_resolution >= 16, "max_resolution", "must be 0 or >= 16");
+  make_level_schedule(c.s0.photo.levels, c.s0.photo.steps, "s0.photo.levels");
+  need(c.s0.photo.warmup <= 1, "s0.photo.warmup", "must be a share in [0, 1]");
+  need(c.s0.photo.steps == 0 || c.s0.photo.texture_size >= 16, "s0.photo.texture_size", "must be >= 16");
   make_level_schedule(c.s1.levels, c.s1.steps, "s1.levels");
   make_level_schedule(c.s2.levels, c.s2.steps, "s2.levels");
   make_level_schedule(c.s3.levels, c.s3.steps, "s3.levels");

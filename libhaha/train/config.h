@@ -48,6 +48,19 @@ struct Stage0Config {
   int window = 0;          // temporal prior: the anchor of that change is the fit averaged over
                            // +-window consecutive training frames (monocular video), not the
                            // frame's own noisy fit; 0 = own fit
+  // Photometric pose fit against a textured mesh (train/photo_fit.h), after the mask pre-fit
+  // and before stage 1: a mesh cannot absorb a misplaced limb the way free Gaussians do.
+  struct Photo {
+    int steps = 0;              // in all, one frame each (0 = off)
+    int resolution = 512;       // longer side of its images (0 = the training resolution; at most the dataset's)
+    double warmup = 0.2;        // share of the steps that train the texture alone
+    double lr = 5e-3;           // global orient / body pose / transl
+    double lr_betas = 0;        // the video's shared shape (0: as fitted)
+    double lr_texture = 0.05, lr_texture_final = 1e-3;  // log-linear decay over the steps
+    int texture_size = 512;     // at the finest level, halved per coarser level
+    std::string levels = "1,1,1,1";  // image pyramid, as s1.levels (512 px: 64, 128, 256, 512)
+    double w_prior = 0.01;      // squared change of the pose values from the anchor (s0.window)
+  } photo;
 };
 
 struct Stage1Config {
