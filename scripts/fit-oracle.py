@@ -28,6 +28,7 @@ A pose PART may end in @train or @test: only those frames take the truth. Needs 
 import json
 import os
 import shutil
+import subprocess
 import sys
 
 import numpy as np
@@ -43,6 +44,16 @@ POSE_PARTS = {'orient': ['global_orient'], 'body': ['body_pose'],
 FILE_PARTS = {'masks': ('masks', 'mask'), 'images': ('images', 'image')}
 # Groups of body_pose's 21 joints (SMPL-X order without the pelvis).
 JOINT_PARTS = {'arms': [15, 16, 17, 18], 'legs': [0, 1, 3, 4, 6, 7, 9, 10], 'torso': [2, 5, 8, 11, 12, 13, 14]}
+
+
+def copy_cropped(src, dst, crop):
+    """A synth PNG as the fitted dataset holds it: cut to its source_crop [x0, y0, w, h] when
+    fit-video cropped (ffmpeg's crop filter, lossless, the PNG's pixel format kept)."""
+    if not crop:
+        shutil.copyfile(src, dst)
+        return
+    subprocess.run(['ffmpeg', '-nostdin', '-y', '-v', 'error', '-i', src, '-vf',
+                    'crop=%d:%d:%d:%d' % (crop[2], crop[3], crop[0], crop[1]), '-frames:v', '1', dst], check=True)
 
 
 def main(argv):
@@ -97,6 +108,7 @@ def main(argv):
             if split in ('', f['split']):
                 fitted['body_pose'][n][3 * j:3 * j + 3] = truth['body_pose'][f['source_index']][3 * j:3 * j + 3]
 
+    crop = json.load(open(os.path.join(out, 'fit', 'dataset.json'))).get('source_crop')  # [x0, y0, w, h]
     base = os.path.join(out, 'oracle_' + name)
     for sub, src in (('train', 'fit'), ('eval', 'fit_eval')):
         d = os.path.join(base, sub)
@@ -106,11 +118,14 @@ def main(argv):
         for part in files:
             folder, field = FILE_PARTS[part]
             for f in frames:
-                shutil.copyfile(os.path.join(out, 'synth', folder, '%06d.png' % f['source_index']),
-                                os.path.join(d, f[field]))
+                copy_cropped(os.path.join(out, 'synth', folder, '%06d.png' % f['source_index']),
+                             os.path.join(d, f[field]), crop)
         if camera:
             meta = json.load(open(os.path.join(d, 'dataset.json')))
-            meta['camera'] = synth['camera']
+            meta['camera'] = json.loads(json.dumps(synth['camera']))
+            if crop:  # the cut moves the principal point
+                meta['camera']['K'][0][2] -= crop[0]
+                meta['camera']['K'][1][2] -= crop[1]
             json.dump(meta, open(os.path.join(d, 'dataset.json'), 'w'), indent=1)
 
     table = train_and_evaluate(opts, os.path.join(base, 'train'), os.path.join(base, 'eval'),
