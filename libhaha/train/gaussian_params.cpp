@@ -179,6 +179,17 @@ double normal01(uint64_t seed, uint64_t stream, uint64_t index) {
   return std::sqrt(-2.0 * std::log(1.0 - u1)) * std::cos(6.283185307179586 * u2);
 }
 
+int epoch_draw(uint64_t seed, uint64_t stream, int n, int64_t k) {
+  const int64_t epoch = k / n, pos = k % n;
+  std::vector<int> perm(static_cast<size_t>(n));
+  std::iota(perm.begin(), perm.end(), 0);
+  for (int i = n - 1; i > 0; --i) {
+    const int j = int(uniform01(seed, stream, uint64_t(epoch) * uint64_t(n) + uint64_t(i)) * (i + 1));
+    std::swap(perm[size_t(i)], perm[size_t(std::min(j, i))]);
+  }
+  return perm[size_t(pos)];
+}
+
 DensifyResult apply_densify(GaussianParams& g, const DensifyPlan& plan, float scale_max, double split_std,
                             double split_div, uint64_t seed) {
   const int64_t n = g.size();

@@ -129,5 +129,8 @@ DensifyResult apply_densify(GaussianParams& g, const DensifyPlan& plan, float sc
 uint64_t hash64(uint64_t seed, uint64_t stream, uint64_t index);
 double uniform01(uint64_t seed, uint64_t stream, uint64_t index);  // [0, 1)
 double normal01(uint64_t seed, uint64_t stream, uint64_t index);   // N(0, 1), Box-Muller
+// Draw k of epochs over n items (n > 0): each epoch of n draws is a seeded permutation
+// (Fisher-Yates on uniform01 of this stream), so every item is drawn once per epoch.
+int epoch_draw(uint64_t seed, uint64_t stream, int n, int64_t k);
 
 }  // namespace haha

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <string>
 
 #include "body/lbs.h"
@@ -21,18 +20,6 @@ namespace haha {
 namespace {
 
 constexpr uint64_t kOrderStream = 0x50f0, kBackgroundStream = 0x50f1;
-
-// Frame of draw k: epochs are seeded permutations of the n frames.
-int frame_of_draw(uint64_t seed, int n, int64_t k) {
-  const int64_t epoch = k / n, pos = k % n;
-  std::vector<int> perm(static_cast<size_t>(n));
-  std::iota(perm.begin(), perm.end(), 0);
-  for (int i = n - 1; i > 0; --i) {
-    const int j = int(uniform01(seed, kOrderStream, uint64_t(epoch) * uint64_t(n) + uint64_t(i)) * (i + 1));
-    std::swap(perm[size_t(i)], perm[size_t(std::min(j, i))]);
-  }
-  return perm[size_t(pos)];
-}
 
 void check_frames(const std::vector<TrainFrame>& frames) {
   const Camera& c0 = frames[0].camera;
@@ -85,7 +72,7 @@ class PhotoFit {
   // One step: returns the image loss (NaN when the step was skipped for a non-finite value).
   double step(int s) {
     enter_level(schedule_.level_of(s));
-    const int fi = frame_of_draw(seed_, int(frames_.size()), s);
+    const int fi = epoch_draw(seed_, kOrderStream, int(frames_.size()), s);
     const TrainFrame& f = level_frame(fi);
     SmplxParams& p = frames_[size_t(fi)].params;
     const bool move_pose = s >= warmup_steps_;

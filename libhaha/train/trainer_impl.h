@@ -139,16 +139,7 @@ struct Trainer::Impl {
   }
 
   // Frame of sample k of stage s: epochs are seeded permutations of the frames.
-  int frame_of(int s, int64_t k) const {
-    const int64_t epoch = k / nf, pos = k % nf;
-    std::vector<int> perm(static_cast<size_t>(nf));
-    std::iota(perm.begin(), perm.end(), 0);
-    for (int i = nf - 1; i > 0; --i) {
-      const int j = int(uniform01(cfg.seed, stream(s, kFrameOrder), uint64_t(epoch) * uint64_t(nf) + uint64_t(i)) * (i + 1));
-      std::swap(perm[size_t(i)], perm[size_t(std::min(j, i))]);
-    }
-    return perm[size_t(pos)];
-  }
+  int frame_of(int s, int64_t k) const { return epoch_draw(cfg.seed, stream(s, kFrameOrder), nf, k); }
   void background(int s, int64_t k, float bg[3]) const {
     for (int c = 0; c < 3; ++c)
       bg[c] = cfg.random_background ? float(uniform01(cfg.seed, stream(s, kBackground), uint64_t(k) * 3 + uint64_t(c))) : 0.0f;
