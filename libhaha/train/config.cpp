@@ -84,6 +84,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s0.photo.levels", K::String, &ph.levels, "photometric pose fit: image pyramid shares, coarsest first"});
   v.push_back({"s0.photo.w.prior", K::Double, &ph.w_prior,
                "photometric pose fit: weight of the squared change of the pose from its anchor"});
+  v.push_back({"s0.photo.w.ssim", K::Double, &ph.w_ssim, "photometric pose fit: weight of 1 - SSIM beside the L2"});
+  v.push_back({"s0.photo.w.sobel", K::Double, &ph.w_sobel, "photometric pose fit: weight of the edge loss beside the L2"});
 
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});

@@ -135,20 +135,22 @@ class PhotoFit {
     return level_frames_.empty() ? frames_[size_t(fi)] : level_frames_[size_t(fi)];
   }
 
-  // The squared error and its gradient (d_image_). Pixels the mesh does not cover have no
-  // gradient (only the antialiased edge moves the outline), so no weighting can help there.
+  // The image loss (L2, and 1 - SSIM and the edge loss when weighted) and its gradient
+  // (d_image_). Pixels the mesh does not cover have no gradient (only the antialiased edge
+  // moves the outline).
   double image_term(const TrainFrame& f, const float bg[3]) {
     const int P = f.camera.width * f.camera.height;
     gt_.resize(3 * size_t(P));
     composite_ground_truth(f.rgb.data(), f.mask.data(), P, premultiplied_, bg, gt_.data());
-    d_image_.resize(3 * size_t(P));
-    double loss = 0;
-    for (size_t k = 0; k < 3 * size_t(P); ++k) {
-      const double r = double(buf_.image[k]) - gt_[k];
-      loss += r * r;
-      d_image_[k] = float(2 * r / P);
-    }
-    return loss / P;
+    d_image_.assign(3 * size_t(P), 0.0f);
+    LossWeights w{};
+    w.l2 = 3;  // the squared colour error summed over the channels, per pixel
+    w.ssim = opt_.w_ssim;
+    w.sobel = opt_.w_sobel;
+    w.lpips = w.knn = w.dice = w.tv = 0;
+    LossTerms terms;
+    return image_loss(buf_.image.data(), gt_.data(), f.camera.height, f.camera.width, nullptr, w, loss_ctx_,
+                      d_image_.data(), 1.0f, terms);
   }
 
   // Adam on the frame's body group: the image gradient through LBS plus the prior's.
@@ -189,6 +191,7 @@ class PhotoFit {
   std::vector<float> betas_, texture_, d_texture_, verts_, d_verts_, gt_, d_image_;
   Adam tex_adam_, pose_adam_;
   AvatarRenderBuffers buf_;
+  ImageLossContext loss_ctx_;
 };
 
 }  // namespace

@@ -94,6 +94,8 @@ TEST(PhotoFit, SameSeedSameResult) {
   std::vector<TrainFrame> a = perturbed_frames(&truth), b = a;
   Stage0Config s0 = photo_config(120);
   s0.photo.lr_betas = 1e-3;
+  s0.photo.w_ssim = 0.3;
+  s0.photo.w_sobel = 1;
   const PhotoFitReport ra = fit_poses_to_images(scene_body(), a, true, s0, 7);
   const PhotoFitReport rb = fit_poses_to_images(scene_body(), b, true, s0, 7);
   EXPECT_EQ(ra.texture, rb.texture);
