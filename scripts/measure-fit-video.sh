@@ -32,7 +32,7 @@
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 out="" haha="$repo/build/cli/haha" motion=() frames=40
-held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.steps=40 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
+held_out="novel" backdrop="black" preset="tiny" fit_opts="" train_keys="s0.photo.steps=6000 s1.lr.pose=0.005" eval_opts="--antialias --tto-steps 100"
 die() { echo "haha: error: $1" >&2; exit 1; }
 while [ $# -gt 0 ]; do
   case "$1" in

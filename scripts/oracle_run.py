@@ -7,7 +7,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 # Options (with measure-fit-video.sh's defaults) each oracle script accepts.
 TRAIN_EVAL_OPTIONS = {'--haha': os.path.join(HERE, '..', 'build', 'cli', 'haha'), '--preset': 'tiny',
-                      '--train': 's0.steps=40 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
+                      '--train': 's0.photo.steps=6000 s1.lr.pose=0.005', '--eval': '--antialias --tto-steps 100'}
 
 
 def train_and_evaluate(opts, train_data, eval_data, model, base):

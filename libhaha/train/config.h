@@ -60,7 +60,7 @@ struct Stage0Config {
     int texture_size = 512;     // at the finest level, halved per coarser level
     std::string levels = "1,1,1,1";  // image pyramid, as s1.levels (512 px: 64, 128, 256, 512)
     double w_prior = 0.01;      // squared change of the pose values from the anchor (s0.window)
-    double w_ssim = 0, w_sobel = 0;  // image loss: |I - gt|^2 per pixel + w_ssim (1 - SSIM) + w_sobel edge loss
+    double w_ssim = 0.3, w_sobel = 1;  // image loss: |I - gt|^2 per pixel + w_ssim (1 - SSIM) + w_sobel edge loss
   } photo;
 };
 

@@ -31,12 +31,6 @@ void check_frames(const std::vector<TrainFrame>& frames) {
   }
 }
 
-// The images and the texture of one level of the pyramid.
-struct PhotoLevel {
-  std::vector<TrainFrame> frames;  // downscaled copies (pixels and camera); empty at the finest level
-  int texture_side = 0;
-};
-
 // The state of the fit: the shared texture with its optimiser (made anew at each level) and
 // the frames' pose groups with theirs.
 class PhotoFit {
@@ -51,8 +45,7 @@ class PhotoFit {
     const int n = int(frames.size());
     anchors_ = s0.window > 0 ? temporal_pose_anchors(frames, s0.window) : std::vector<std::vector<float>>();
     std::vector<float> fine(kPoseFineGroup);
-    // One shape for the video (the trainer's rule: the mean of the fits), written back to
-    // every frame at the end.
+    // One shape for the video (the trainer's rule: the mean of the fits), in every frame.
     size_t nb = 0;
     for (const TrainFrame& f : frames) nb = std::max(nb, f.params.betas.size());
     betas_.assign(std::min(nb, size_t(body.num_shape)), 0.0f);
@@ -100,11 +93,6 @@ class PhotoFit {
     for (float& t : texture_) t = std::clamp(t, 0.0f, 1.0f);
     if (move_pose) update_pose(fi, p);
     return loss;
-  }
-
-  // The shared shape into every frame (after the last step).
-  void finish() {
-    for (TrainFrame& f : frames_) f.params.betas = betas_;
   }
 
   PhotoFitReport report() const {
@@ -219,7 +207,6 @@ PhotoFitReport fit_poses_to_images(const BodyModel& body, std::vector<TrainFrame
       since = 0, n_since = 0;
     }
   }
-  fit.finish();
   PhotoFitReport rep = fit.report();
   rep.loss_start = n_start ? start / n_start : NAN;
   rep.loss_end = n_end ? end / n_end : NAN;

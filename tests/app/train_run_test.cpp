@@ -251,16 +251,19 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
     const TrainConfig saved = read_run_info(RunDir(path("run_" + name))).config;
     if (fits == Fits::estimated) {
       EXPECT_EQ(saved.fits, "estimated");
-      EXPECT_EQ(saved.s0.steps, 40);
+      EXPECT_EQ(saved.s0.steps, 0);
+      EXPECT_EQ(saved.s0.photo.steps, 6000);
       EXPECT_DOUBLE_EQ(saved.s1.lr_pose, 0.005);
       EXPECT_EQ(saved.eval_tto_steps, 100);
       EXPECT_TRUE(saved.eval_antialias);
       EXPECT_EQ(saved.s1.steps, 6);  // the user's keys stay
-      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.steps=40 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
+      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.photo.steps=6000 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
                           "s3.depth_margin=0.01 eval.tto_steps=100 eval.antialias=true (override any with key=value"),
                 std::string::npos)
           << log_;
-      EXPECT_NE(log_.find("pose pre-fit to the masks: 6 frames x 40 steps"), std::string::npos) << log_;
+      EXPECT_NE(log_.find("photometric pose fit against a textured mesh: 6000 steps over 6 frames at 48x48"),
+                std::string::npos)
+          << log_;
     } else {
       // Exact, or a dataset.json without the flag (older files): the preset as before.
       EXPECT_EQ(saved.fits, "exact");
@@ -277,10 +280,10 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
   const std::string data = path("ds_estimated");
   TrainRunOptions o = options(data, path("run_mine"));
   o.stop_after = 0;
-  o.overrides.push_back("s0.steps=0");
+  o.overrides.push_back("s0.photo.steps=0");
   run_training(o);
   const TrainConfig mine = read_run_info(RunDir(path("run_mine"))).config;
-  EXPECT_EQ(mine.s0.steps, 0);
+  EXPECT_EQ(mine.s0.photo.steps, 0);
   EXPECT_DOUBLE_EQ(mine.s1.lr_pose, 0.005);
   o = options(data, path("run_told_exact"));
   o.stop_after = 0;
@@ -299,7 +302,7 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
 
 TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
   TrainRunOptions o = options(make_dataset(Fits::estimated), path("run"));
-  o.overrides.push_back("s0.steps=2");  // the pre-fit's length does not matter here
+  o.overrides.push_back("s0.photo.steps=2");  // the photometric fit's length does not matter here
   ASSERT_TRUE(run_training(o).finished);
   EvalRunOptions e;
   e.run_dir = path("run");
@@ -317,7 +320,7 @@ TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
   EXPECT_EQ(r.tto_steps, 100);
   EXPECT_TRUE(r.antialias);
   // The report's switches say why: the fits, and what they brought.
-  for (const char* sw : {"fits=estimated", "s0.steps=2", "s1.lr.pose=0.005", "eval.tto_steps=100", "eval.antialias=true"})
+  for (const char* sw : {"fits=estimated", "s0.photo.steps=2", "s1.lr.pose=0.005", "eval.tto_steps=100", "eval.antialias=true"})
     EXPECT_NE(std::find(r.switches.begin(), r.switches.end(), sw), r.switches.end()) << sw;
 
   // An exact run: off unless --antialias, and "fits=exact" is no switch.
