@@ -67,6 +67,7 @@ void photo_fit_poses(const BodyModel& body, Dataset& ds, std::vector<TrainFrame>
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   const PhotoFitReport fit =
       fit_poses_to_images(body, frames, premultiplied, cfg.s0, cfg.seed, [&](int done, int total, double loss) {
+        check_interrupted();  // Ctrl-C: nothing of the run is written yet
         char line[160];
         std::snprintf(line, sizeof line, "[photometric pose fit] step %d/%d | loss %.4g | ETA %s", done, total, loss,
                       format_duration(seconds() / done * (total - done)).c_str());

@@ -11,6 +11,7 @@
 #include "app/run_dir.h"
 #include "app/train_frames.h"
 #include "app/train_run.h"
+#include "core/interrupt.h"
 #include "data/dataset.h"
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
@@ -298,6 +299,16 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
   o.overrides.push_back("fits=guessed");
   expect_error([&] { run_training(o); }, {"fits: must be auto, exact or estimated, got 'guessed'"});
   EXPECT_FALSE(fs::exists(path("run_bad")));
+}
+
+TEST_F(TrainRunTest, CtrlCInThePhotometricPoseFitLeavesNoRun) {
+  TrainRunOptions o = options(make_dataset(Fits::estimated), path("run"));
+  request_interrupt();  // what the handler does on Ctrl-C
+  expect_error([&] { run_training(o); }, {"interrupted"});
+  clear_interrupt();
+  EXPECT_NE(log_.find("fits: estimated"), std::string::npos) << log_;  // it got as far as the fit
+  EXPECT_EQ(log_.find("photometric pose fit against"), std::string::npos) << log_;
+  EXPECT_FALSE(fs::exists(path("run")));
 }
 
 TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
