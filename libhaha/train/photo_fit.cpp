@@ -45,12 +45,7 @@ class PhotoFit {
     const int n = int(frames.size());
     anchors_ = s0.window > 0 ? temporal_pose_anchors(frames, s0.window) : std::vector<std::vector<float>>();
     std::vector<float> fine(kPoseFineGroup);
-    // One shape for the video (the trainer's rule: the mean of the fits), in every frame.
-    size_t nb = 0;
-    for (const TrainFrame& f : frames) nb = std::max(nb, f.params.betas.size());
-    betas_.assign(std::min(nb, size_t(body.num_shape)), 0.0f);
-    for (const TrainFrame& f : frames)
-      for (size_t k = 0; k < std::min(betas_.size(), f.params.betas.size()); ++k) betas_[k] += f.params.betas[k] / float(n);
+    betas_ = video_betas(frames, body.num_shape);  // the trainer's shape, in every frame
     for (TrainFrame& f : frames) f.params.betas = betas_;
     for (int i = 0; i < n; ++i) {
       pose_adam_.add_group("frame" + std::to_string(i), kPoseBodyGroup, opt_.lr);

@@ -9,6 +9,18 @@
 
 namespace haha {
 
+std::vector<float> video_betas(const std::vector<TrainFrame>& frames, int num_shape) {
+  size_t nb = 0;
+  for (const TrainFrame& f : frames) nb = std::max(nb, f.params.betas.size());
+  if (nb == 0) nb = size_t(std::min(10, num_shape));
+  nb = std::min(nb, size_t(num_shape));
+  std::vector<float> betas(nb, 0.0f);
+  const float n = float(frames.size());
+  for (const TrainFrame& f : frames)
+    for (size_t k = 0; k < std::min(nb, f.params.betas.size()); ++k) betas[k] += f.params.betas[k] / n;
+  return betas;
+}
+
 void validate_train_input(const TrainInput& in) {
   if (!in.body) fail("training data", "no body model");
   const BodyModel& b = *in.body;

@@ -63,6 +63,11 @@ struct TrainInput {
 // Throws haha::Error "<frame name>: <problem>".
 void validate_train_input(const TrainInput& in);
 
+// The video's one shape: the mean of the frames' fitted betas, at most the model's shape
+// columns (min(10, num_shape) zeros when no frame has any). The trainer and the photometric
+// pose fit share it.
+std::vector<float> video_betas(const std::vector<TrainFrame>& frames, int num_shape);
+
 // Trainer state for a checkpoint: named 1-D arrays (the data layer stores them as npz).
 struct TrainCheckpoint {
   std::map<std::string, std::vector<float>> f32;

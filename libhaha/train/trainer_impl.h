@@ -183,14 +183,7 @@ struct Trainer::Impl {
     }
     lctx.lpips = lpips.get();
     setup_levels();
-    // Shared betas: mean of the fits (at most the model's shape columns).
-    size_t nb = 0;
-    for (const TrainFrame& f : in.frames) nb = std::max(nb, f.params.betas.size());
-    if (nb == 0) nb = size_t(std::min(10, body.num_shape));
-    nb = std::min(nb, size_t(body.num_shape));
-    betas.assign(nb, 0.0f);
-    for (const TrainFrame& f : in.frames)
-      for (size_t k = 0; k < std::min(nb, f.params.betas.size()); ++k) betas[k] += f.params.betas[k] / float(nf);
+    betas = video_betas(in.frames, body.num_shape);
     // From the fits' betas (not the refined ones), so a resumed run sees the same weights.
     if (cfg.s1.w.stretch > 0) face_stretch = face_arm_stretch(body, betas, float(cfg.face_scale_divisor));
     params.clear();
