@@ -16,7 +16,7 @@ PackedSizes pack_run(const std::string& run_or_npz, const std::string& model, co
   if (fs::is_regular_file(run_or_npz)) {
     if (model.empty()) fail(run_or_npz, "an avatar.npz given directly needs --model (the body model it was trained on)");
     avatar = load_avatar_npz(run_or_npz);
-    avatar.body = load_body_model(model);
+    attach_body(avatar, load_body_model(model), run_or_npz);
   } else {
     avatar = load_run_avatar(RunDir(run_or_npz), model);
   }

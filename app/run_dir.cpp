@@ -165,14 +165,14 @@ TrainCheckpoint read_checkpoint(const std::string& path) {
 Avatar load_run_avatar(const RunDir& run, const std::string& model_path) {
   if (!fs::is_directory(run.dir)) fail(run.dir, "not a directory (expected a trained run directory)");
   Avatar a = load_avatar_npz(run.avatar());
-  a.body = load_body_model(model_path.empty() ? read_run_info(run).model_path : model_path);
+  attach_body(a, load_body_model(model_path.empty() ? read_run_info(run).model_path : model_path), run.avatar());
   validate_gaussians(a.gaussians, a.body.num_faces, run.avatar());
   return a;
 }
 
 Avatar load_stage1_avatar(const RunDir& run, const BodyModel& body) {
   Avatar a = load_avatar_npz(run.stage1_avatar());
-  a.body = body;
+  attach_body(a, body, run.stage1_avatar());
   validate_gaussians(a.gaussians, a.body.num_faces, run.stage1_avatar());
   return a;
 }

@@ -1,5 +1,7 @@
 #include "format/avatar_npz.h"
 
+#include <cmath>
+
 #include "core/error.h"
 #include "format/avatar_validate.h"
 #include "io/npy.h"
@@ -24,6 +26,8 @@ void save_avatar_npz(const Avatar& a, const std::string& path) {
   z.set("gaussian_scale", NpyArray::from(g.scale, {n, 3}));
   z.set("gaussian_color", NpyArray::from(g.color, {n, 3}));
   z.set("gaussian_opacity", NpyArray::from(g.opacity, {n}));
+  const std::vector<float>& d = a.body.rest_offsets;
+  if (!d.empty()) z.set("rest_offsets", NpyArray::from(d, {int64_t(d.size() / 3), 3}));
   z.write(path);
 }
 
@@ -52,9 +56,23 @@ Avatar load_avatar_npz(const std::string& path) {
   g.scale = z.get("gaussian_scale", {n, 3}).as_float();
   g.color = z.get("gaussian_color", {n, 3}).as_float();
   g.opacity = z.get("gaussian_opacity", {n}).as_float();
+  if (z.has("rest_offsets")) {
+    a.body.rest_offsets = z.get("rest_offsets", {-1, 3}).as_float();
+    for (float x : a.body.rest_offsets)
+      if (!std::isfinite(x)) fail(path, "rest_offsets: non-finite value");
+  }
   validate_subject(a, path);
   validate_gaussians(g, -1, path);
   return a;
+}
+
+void attach_body(Avatar& a, BodyModel body, const std::string& path) {
+  std::vector<float> d = std::move(a.body.rest_offsets);
+  if (!d.empty() && d.size() != size_t(body.num_verts) * 3)
+    fail(path, "rest_offsets: " + std::to_string(d.size() / 3) + " vertices, the body model has " +
+                   std::to_string(body.num_verts));
+  a.body = std::move(body);
+  a.body.rest_offsets = std::move(d);
 }
 
 }  // namespace haha

@@ -15,6 +15,7 @@
 //   gaussian_scale      (N, 3)               > 0, in units of the face scale k
 //   gaussian_color      (N, 3)               RGB in [0, 1]
 //   gaussian_opacity    (N)                  [0, 1]
+//   rest_offsets        (V, 3)               the body's rest displacement (optional; none)
 #pragma once
 
 #include <string>
@@ -29,8 +30,14 @@ inline constexpr int kAvatarNpzVersion = 1;
 // non-finite values.
 void save_avatar_npz(const Avatar& avatar, const std::string& path);
 
-// Reads avatar.npz; the returned body is empty. Shapes, finiteness and value ranges are
-// checked ("path: key: problem"); face indices are checked once a body is attached.
+// Reads avatar.npz; the returned body is empty but for its rest_offsets. Shapes,
+// finiteness and value ranges are checked ("path: key: problem"); face indices are checked
+// once a body is attached.
 Avatar load_avatar_npz(const std::string& path);
+
+// Makes `body` (the model the run was trained on) the avatar's, keeping the rest
+// displacement the avatar.npz carried. Throws "path: rest_offsets: ..." when its vertex
+// count is not the model's.
+void attach_body(Avatar& avatar, BodyModel body, const std::string& path);
 
 }  // namespace haha

@@ -194,6 +194,16 @@ std::vector<T> gather(const std::vector<T>& per_body_vertex, const std::vector<i
 int default_texture_quality(int side) { return side <= 512 ? 90 : 75; }
 
 std::vector<float> baked_rest_vertices(const Avatar& a) {
+  std::vector<float> out = shaped_rest_vertices(a);
+  const std::vector<float>& d = a.body.rest_offsets;
+  if (!d.empty()) {
+    if (d.size() != out.size()) fail("avatar", "rest_offsets: " + std::to_string(d.size()) + " values for " + std::to_string(out.size() / 3) + " vertices");
+    for (size_t i = 0; i < out.size(); ++i) out[i] += d[i];  // the float sum LBS makes (body/lbs.cpp)
+  }
+  return out;
+}
+
+std::vector<float> shaped_rest_vertices(const Avatar& a) {
   const BodyModel& b = a.body;
   const size_t V = size_t(b.num_verts);
   std::vector<float> out(b.v_template);
@@ -257,11 +267,14 @@ RestBody rest_body(const Avatar& a) {
     for (size_t i = 0; i < r.joints.size(); ++i) r.joints[i] = b.joints_rest[i];
     return r;
   }
+  // The joints of the bare body: a rest displacement (clothes) does not move the skeleton.
+  const std::vector<float> bare = b.rest_offsets.empty() ? std::vector<float>() : shaped_rest_vertices(a);
+  const std::vector<float>& src = bare.empty() ? r.verts : bare;
   for (int j = 0; j < kNumJoints; ++j)
     for (int v = 0; v < V; ++v) {
       const double w = b.j_regressor[size_t(j) * V + v];
       if (w != 0.0)
-        for (int k = 0; k < 3; ++k) r.joints[size_t(j) * 3 + k] += w * r.verts[size_t(v) * 3 + k];
+        for (int k = 0; k < 3; ++k) r.joints[size_t(j) * 3 + k] += w * src[size_t(v) * 3 + k];
     }
   return r;
 }
@@ -545,8 +558,10 @@ void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest, bool with
   d.ext["body"]["node"] = mesh_node;
   d.ext["body"]["skin"] = 0;
   // The shape is baked, so the rest joints never change: loaders take them from the
-  // inverse bind matrices. The regressor (17 KB for SMPL-X) only travels in lossless packs.
-  if (!with_regressor || b.j_regressor.empty()) return;
+  // inverse bind matrices. The regressor (17 KB for SMPL-X) only travels in lossless packs,
+  // and never with a rest displacement: regressed from the stored (displaced) positions it
+  // would move the joints.
+  if (!with_regressor || b.j_regressor.empty() || !b.rest_offsets.empty()) return;
 
   std::vector<int32_t> jr_joint, jr_vert;
   std::vector<float> jr_w;

@@ -137,9 +137,13 @@ std::vector<uint8_t> pack_avatar(const Avatar& avatar, const PackOptions& option
 // pack_avatar + atomic write.
 PackedSizes write_avatar_glb(const Avatar& avatar, const std::string& path, const PackOptions& options);
 
-// Rest-shape vertices (V, 3) of the avatar's body: v_template + shapedirs . [betas,
-// expression], accumulated in double. A body without (non-zero) shapedirs is taken as
-// already baked (its betas are metadata only). Throws if betas/expression are longer than the model's.
+// Rest-shape vertices (V, 3) of the avatar's bare body: v_template + shapedirs . [betas,
+// expression], accumulated in double; the rest joints are regressed from these. A body
+// without (non-zero) shapedirs is taken as already baked (its betas are metadata only).
+// Throws if betas/expression are longer than the model's.
+std::vector<float> shaped_rest_vertices(const Avatar& avatar);
+// The rest vertices (V, 3) the file stores: shaped_rest_vertices plus the body's rest
+// displacement (BodyModel::rest_offsets), when it has one.
 std::vector<float> baked_rest_vertices(const Avatar& avatar);
 
 }  // namespace haha

@@ -65,7 +65,9 @@ void validate_body(const BodyModel& b, const std::string& where) {
                       " (must be an earlier joint)");
     }
   }
+  if (!b.rest_offsets.empty()) check_size(b.rest_offsets.size(), V * 3, where, "body rest_offsets", v3);
   check_finite(b.v_template, where, "body v_template");
+  check_finite(b.rest_offsets, where, "body rest_offsets");
   check_finite(b.weights, where, "body weights");
   check_finite(b.j_regressor, where, "body J_regressor");
   check_finite(b.joints_rest, where, "body rest joints");

@@ -43,6 +43,11 @@ struct BodyModel {
   // (V, 3, num_shape + num_expr): columns 0..num_shape-1 shape, then expression.
   std::vector<float> shapedirs;
   std::vector<float> posedirs;     // (V, 3, 486)
+  // (V, 3) or empty: a subject's displacement of the rest surface (SMPL+D: the clothed
+  // person, not the bare body; train/surface_fit.h), added to the shaped rest vertices
+  // after the joint regression, so the joints, the skinning and the correctives stay the
+  // body's. Not part of a model file: the trainer fits it, the run and the .glb carry it.
+  std::vector<float> rest_offsets;
 
   // Hand PCA (45 x 45 components, 45 means) for fits that store PCA coefficients.
   std::vector<float> hands_components_l, hands_components_r;  // (45, 45)

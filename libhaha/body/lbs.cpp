@@ -114,6 +114,13 @@ LbsModelData<T> lbs_model_data(const BodyModel& model) {
     for (size_t i = 0; i < js.size(); ++i) d->j_shapedirs[size_t(j) * 3 * S + i] = T(js[i]);
   }
 
+  // The rest displacement joins the template after the joints were regressed from the bare
+  // surface (body_model.h): every backend adds the template, so they all see it.
+  if (!model.rest_offsets.empty()) {
+    check("rest_offsets", model.rest_offsets.size(), size_t(V) * 3);
+    for (size_t i = 0; i < size_t(V) * 3; ++i) d->v_template[i] += T(model.rest_offsets[i]);
+  }
+
   // Sparse skinning weights.
   d->w_off.assign(V + 1, 0);
   for (int v = 0; v < V; ++v) {

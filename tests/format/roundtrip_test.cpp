@@ -8,6 +8,7 @@
 #include <random>
 #include <cstring>
 
+#include "body/lbs.h"
 #include "core/error.h"
 #include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
@@ -482,6 +483,57 @@ TEST(FormatRoundTrip, AvatarWithoutGaussiansPacksAndReadsBack) {
     EXPECT_EQ(u.info.sizes.num_gaussians, 0);
     EXPECT_EQ(u.avatar.body.num_faces, a.body.num_faces);
     EXPECT_FALSE(u.info.splats);
+  }
+}
+
+}  // namespace
+}  // namespace haha
+
+namespace haha {
+namespace {
+
+// A body with a rest displacement (the clothed surface, BodyModel::rest_offsets): every pack
+// stores the displaced rest positions and the bare body's joints, so a reader that knows
+// nothing of the displacement reposes exactly as the trainer's LBS does.
+TEST(FormatRoundTrip, RestDisplacementReposesAsTheTrainerDoes) {
+  Avatar a = test::make_test_avatar(200);
+  a.body.rest_offsets.resize(a.body.v_template.size());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> d(0.0f, 0.03f);
+  for (float& x : a.body.rest_offsets) x = d(rng);
+  SmplxParams rest, p;
+  std::normal_distribution<float> n(0.0f, 0.4f);
+  for (float& x : p.pose) x = n(rng);
+  p.transl = {0.1f, -0.2f, 0.3f};
+  for (SmplxParams* q : {&rest, &p}) q->betas = a.betas, q->expression = a.expression;
+  Lbs<float> lbs(a.body);
+  std::vector<float> want(a.body.v_template.size()), want_j(3 * kNumJoints), rest_j(3 * kNumJoints);
+  lbs.forward(p, want.data(), want_j.data(), nullptr);
+  lbs.forward(rest, want.data(), rest_j.data(), nullptr);  // the bare body's rest joints
+  const std::vector<float> baked = baked_rest_vertices(a);
+  lbs.forward(p, want.data(), want_j.data(), nullptr);
+  for (const bool lossless : {true, false}) {
+    PackOptions opt;
+    opt.lossless = lossless;
+    opt.mesh_compression = lossless ? MeshCompression::draco : MeshCompression::none;
+    if (lossless) opt.pose_correctives = PoseCorrectives::dense;
+    const std::vector<uint8_t> glb = pack_avatar(a, opt);
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+    const BodyModel& b = u.avatar.body;
+    EXPECT_TRUE(b.rest_offsets.empty()) << "the file's rest positions hold it";
+    EXPECT_TRUE(b.j_regressor.empty()) << "a regressor would move the joints with the clothes";
+    ASSERT_EQ(b.joints_rest.size(), rest_j.size());
+    for (size_t i = 0; i < rest_j.size(); ++i) EXPECT_NEAR(b.joints_rest[i], rest_j[i], 2e-6f) << "joint value " << i;
+    float worst_rest = 0;
+    for (size_t i = 0; i < baked.size(); ++i) worst_rest = std::max(worst_rest, std::fabs(b.v_template[i] - baked[i]));
+    EXPECT_LT(worst_rest, lossless ? 1e-7f : 1e-3f) << "rest positions, " << (lossless ? "lossless" : "default");
+    if (!lossless) continue;  // the default pack's weights and correctives are quantized (tests above)
+    const AvatarLoader loader(u.avatar);
+    PosedAvatar posed;
+    loader.repose(p, posed);
+    float worst = 0;
+    for (size_t i = 0; i < want.size(); ++i) worst = std::max(worst, std::fabs(posed.verts[i] - want[i]));
+    EXPECT_LT(worst, 2e-5f) << "m, posed vertices of the lossless pack against the trainer's LBS";
   }
 }
 

@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 }
 
 // Small valid files: the default pack, lossless, webp, and (version 3) a plain mesh with
-// skinned splats and an edgebreaker mesh. The corpus also keeps seeds of older versions
+// skinned splats, an edgebreaker mesh and a lossless pack of a displaced (clothed) body. The corpus also keeps seeds of older versions
 // written by earlier packers (seed0-4: versions 2).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   const haha::Avatar a = haha::test::make_test_avatar(40, 2, 8, 8);
@@ -30,4 +30,7 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
     haha::fuzz::write_seed(dir, "seed" + std::to_string(k++) + ".glb", haha::pack_avatar(a, o));
   haha::fuzz::write_seed(dir, "seed5_v3_plain_splats.glb", haha::pack_avatar(a, plain));
   haha::fuzz::write_seed(dir, "seed6_v3_edgebreaker.glb", haha::pack_avatar(haha::test::without_degenerate_face(a), lossy));
+  haha::Avatar clothed = a;  // a body with the clothed surface's rest displacement
+  clothed.body.rest_offsets.assign(a.body.v_template.size(), 0.01f);
+  haha::fuzz::write_seed(dir, "seed7_v3_clothed_lossless.glb", haha::pack_avatar(clothed, lossless));
 }
