@@ -16,9 +16,11 @@
 #include "data/dataset.h"
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
+#include "io/npy.h"
 #include "io/smplx_params_io.h"
 #include "train/device.h"
 #include "train/photo_fit.h"
+#include "train/surface_fit.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
 #include "train/train_loop.h"
@@ -83,6 +85,52 @@ void photo_fit_poses(const BodyModel& body, Dataset& ds, std::vector<TrainFrame>
   log(line);
 }
 
+// The clothed surface (train/surface_fit.h) with progress lines: the body the trainer gets,
+// its rest displacement also written to the run directory (a resumed run reads it back).
+BodyModel fit_clothed_surface(const BodyModel& body, const std::vector<TrainFrame>& frames, bool premultiplied,
+                              const TrainConfig& cfg, const RunDir& run, const std::function<void(const std::string&)>& log,
+                              ojson& summary) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  const SurfaceFitReport fit =
+      fit_rest_surface(body, frames, premultiplied, cfg.s0.surface, cfg.seed, [&](int done, int total, double loss) {
+        check_interrupted();  // Ctrl-C: nothing of the run is written yet
+        char line[160];
+        std::snprintf(line, sizeof line, "[clothed surface] step %d/%d | loss %.4g | ETA %s", done, total, loss,
+                      format_duration(seconds() / done * (total - done)).c_str());
+        log(line);
+      });
+  char line[240];
+  std::snprintf(line, sizeof line,
+                "clothed surface: %d steps at %d px, data loss %.4g -> %.4g; displacement mean %.1f mm, 95%% under %.1f mm, "
+                "largest %.1f mm (%.1f s)",
+                cfg.s0.surface.steps, fit.side, fit.loss_start, fit.loss_end, fit.mean_mm, fit.p95_mm, fit.max_mm, seconds());
+  log(line);
+  summary = {{"steps", cfg.s0.surface.steps}, {"side", fit.side},      {"loss", {fit.loss_start, fit.loss_end}},
+             {"mean_mm", fit.mean_mm},       {"p95_mm", fit.p95_mm}, {"max_mm", fit.max_mm},
+             {"seconds", seconds()}};
+  ensure_directory(run.dir);
+  write_npy(run.rest_offsets(), NpyArray::from(fit.offsets, {int64_t(body.num_verts), 3}));
+  BodyModel out = body;
+  out.rest_offsets = fit.offsets;
+  return out;
+}
+
+// A resumed run's body: the model with the rest displacement its first run fitted.
+BodyModel resumed_body(const BodyModel& body, const TrainConfig& cfg, const RunDir& run) {
+  if (cfg.s0.surface.steps <= 0) return body;
+  const std::string path = run.rest_offsets();
+  if (!fs::exists(path)) fail(path, "--resume: the run fitted a clothed surface but its displacement is missing");
+  BodyModel out = body;
+  out.rest_offsets = read_npy(path).as_float();
+  if (out.rest_offsets.size() != size_t(body.num_verts) * 3)
+    fail(path, "rest displacement of " + std::to_string(out.rest_offsets.size() / 3) + " vertices, the body model has " +
+                   std::to_string(body.num_verts));
+  for (float x : out.rest_offsets)
+    if (!std::isfinite(x)) fail(path, "non-finite rest displacement");
+  return out;
+}
+
 }  // namespace
 
 TrainRunResult run_training(const TrainRunOptions& opt) {
@@ -128,7 +176,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   const TrainConfig& cfg = info.config;
 
   // Everything is read and validated before the first step.
-  const BodyModel body = load_body_model(info.model_path);
+  const BodyModel model = load_body_model(info.model_path);
   Dataset ds = read_dataset(info.data_path, LoadPixels::all);
   if (!opt.resume) {  // a resumed run keeps its saved config
     std::string picked;
@@ -138,7 +186,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   LpipsWeights lw;
   if (!info.lpips_weights_path.empty()) lw = read_lpips_weights(info.lpips_weights_path);
   TrainInput input;
-  input.body = &body;
+  input.body = &model;
   input.premultiplied = dataset_premultiplied(ds, cfg.premultiplied);
   input.frames = dataset_frames(ds, Split::train, dataset_train_resolution(ds, cfg));
   if (input.frames.empty()) fail(info.data_path, "the dataset has no training frames");
@@ -147,8 +195,16 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   const int num_frames = int(input.frames.size());
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
   if (cfg.s0.steps > 0 && !opt.resume)  // a resumed run has its refined poses in the checkpoint
-    prefit_poses(body, input.frames, cfg.s0, log);
-  if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(body, ds, input.frames, input.premultiplied, cfg, log);
+    prefit_poses(model, input.frames, cfg.s0, log);
+  if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(model, ds, input.frames, input.premultiplied, cfg, log);
+  if (!opt.resume && fs::exists(ck_path))  // before the surface fit writes into the run directory
+    fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
+  ojson surface_summary;  // null without a clothed-surface fit in this call
+  const BodyModel body =
+      opt.resume                  ? resumed_body(model, cfg, run)
+      : cfg.s0.surface.steps > 0 ? fit_clothed_surface(model, input.frames, input.premultiplied, cfg, run, log, surface_summary)
+                                 : model;
+  input.body = &body;
   Trainer trainer(cfg, std::move(input), device);
   if (device == Device::cuda) log("device: cuda, " + gpu_description());
 
@@ -225,6 +281,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   s["lpips"] = trainer.lpips_active();
   s["threads"] = num_threads();
   s["device"] = device_name(device);
+  if (!surface_summary.is_null()) s["clothed_surface"] = surface_summary;
   write_text_file(run.train_summary(), s.dump(2) + "\n");
   char buf[256];
   std::snprintf(buf, sizeof buf, "done: %d Gaussians after stage 1, %d after filtering; stages %.1f s / %.1f s / %.1f s",

@@ -86,6 +86,25 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
                "photometric pose fit: weight of the squared change of the pose from its anchor"});
   v.push_back({"s0.photo.w.ssim", K::Double, &ph.w_ssim, "photometric pose fit: weight of 1 - SSIM beside the L2"});
   v.push_back({"s0.photo.w.sobel", K::Double, &ph.w_sobel, "photometric pose fit: weight of the edge loss beside the L2"});
+  Stage0Config::Surface& sf = s0.surface;
+  v.push_back({"s0.surface.steps", K::Int, &sf.steps,
+               "clothed surface: displacement of the rest body fitted before stage 1, steps in all (0 = off)"});
+  v.push_back({"s0.surface.resolution", K::Int, &sf.resolution, "clothed surface: longer image side (at most the training one)"});
+  v.push_back({"s0.surface.levels", K::String, &sf.levels, "clothed surface: image pyramid shares, coarsest first"});
+  v.push_back({"s0.surface.warmup", K::Double, &sf.warmup, "clothed surface: share of steps training the texture alone"});
+  v.push_back({"s0.surface.lr", K::Double, &sf.lr, "clothed surface: displacement lr at the start (metres)"});
+  v.push_back({"s0.surface.lr_final", K::Double, &sf.lr_final, "clothed surface: displacement lr at the end"});
+  v.push_back({"s0.surface.lr.texture", K::Double, &sf.lr_texture, "clothed surface: texture lr at the start"});
+  v.push_back({"s0.surface.lr.texture_final", K::Double, &sf.lr_texture_final, "clothed surface: texture lr at the end"});
+  v.push_back({"s0.surface.texture_size", K::Int, &sf.texture_size, "clothed surface: texture side at the finest level"});
+  v.push_back({"s0.surface.max_out", K::Double, &sf.max_out, "clothed surface: largest outward displacement (metres)"});
+  v.push_back({"s0.surface.max_held", K::Double, &sf.max_held,
+               "clothed surface: largest outward displacement of hands, feet, jaw and eyes (metres)"});
+  v.push_back({"s0.surface.max_in", K::Double, &sf.max_in, "clothed surface: largest inward displacement (metres)"});
+  v.push_back({"s0.surface.w.silhouette", K::Double, &sf.w_silhouette, "clothed surface: weight of the mask mismatch"});
+  v.push_back({"s0.surface.w.photo", K::Double, &sf.w_photo, "clothed surface: weight of the colour error"});
+  v.push_back({"s0.surface.w.laplacian", K::Double, &sf.w_laplacian, "clothed surface: weight of the smoothness"});
+  v.push_back({"s0.surface.w.shrink", K::Double, &sf.w_shrink, "clothed surface: weight of the pull back to the body"});
 
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});
@@ -143,6 +162,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s3.opacity_mode", K::OpacityMode, &s3.opacity_mode, "opacity regulariser: sum_squares | mean_abs"});
   v.push_back({"s3.prune_threshold", K::Double, &s3.prune_threshold, "Gaussians below this opacity are deleted"});
   v.push_back({"s3.prune_every", K::Int, &s3.prune_every, "steps between prunes (and at the stage end)"});
+  v.push_back({"s3.budget_db", K::Double, &s3.budget_db,
+               "filtering: the opacity weight fades while the training views' L2 is this many dB above their best (0 = fixed weight)"});
   v.push_back({"s3.depth_margin", K::Double, &s3.depth_margin, "depth test margin in metres (0 = exact)"});
   v.push_back({"s3.levels", K::String, &s3.levels, "coarse to fine as s1.levels"});
 
@@ -344,6 +365,13 @@ void validate_config(const TrainConfig& c) {
   make_level_schedule(c.s0.photo.levels, c.s0.photo.steps, "s0.photo.levels");
   need(c.s0.photo.warmup <= 1, "s0.photo.warmup", "must be a share in [0, 1]");
   need(c.s0.photo.steps == 0 || c.s0.photo.texture_size >= 16, "s0.photo.texture_size", "must be >= 16");
+  make_level_schedule(c.s0.surface.levels, c.s0.surface.steps, "s0.surface.levels");
+  need(c.s0.surface.warmup <= 1, "s0.surface.warmup", "must be a share in [0, 1]");
+  need(c.s0.surface.steps == 0 || c.s0.surface.texture_size >= 16, "s0.surface.texture_size", "must be >= 16");
+  need(c.s0.surface.steps == 0 || c.s0.surface.resolution >= 16, "s0.surface.resolution", "must be >= 16");
+  need(c.s0.surface.max_out <= 0.5 && c.s0.surface.max_held <= c.s0.surface.max_out, "s0.surface.max_out",
+       "must be <= 0.5 m and >= s0.surface.max_held");
+  need(c.s0.surface.max_in <= 0.05, "s0.surface.max_in", "must be <= 0.05 m");
   make_level_schedule(c.s1.levels, c.s1.steps, "s1.levels");
   make_level_schedule(c.s2.levels, c.s2.steps, "s2.levels");
   make_level_schedule(c.s3.levels, c.s3.steps, "s3.levels");

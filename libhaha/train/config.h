@@ -62,6 +62,26 @@ struct Stage0Config {
     double w_prior = 0.01;      // squared change of the pose values from the anchor (s0.window)
     double w_ssim = 0.3, w_sobel = 1;  // image loss: |I - gt|^2 per pixel + w_ssim (1 - SSIM) + w_sobel edge loss
   } photo;
+  // The clothed surface: a displacement of the body's rest vertices along their normals,
+  // fitted to the frames' masks and colours after the pose fits, before stage 1
+  // (train/surface_fit.h). Every stage, the file and every reader then see the displaced
+  // body (BodyModel::rest_offsets).
+  struct Surface {
+    int steps = 0;              // in all, one frame each (0 = off)
+    int resolution = 256;       // longer side of its images (at most the training resolution)
+    std::string levels = "1,2";  // image pyramid shares, coarsest first (256 px: 128, 256)
+    double warmup = 0.2;        // share of the steps that train the texture alone
+    double lr = 1e-3, lr_final = 1e-4;  // metres, log-linear over the steps
+    double lr_texture = 0.05, lr_texture_final = 2e-3;
+    int texture_size = 256;     // at the finest level, halved per coarser level
+    double max_out = 0.08;      // metres outward at most
+    double max_held = 0.005;    // ... where hands, feet and the jaw / eyes drive the vertex
+    double max_in = 0.003;      // metres inward at most (the fit's body is not too fat)
+    double w_silhouette = 1;    // coverage against the mask, both ways (mean over pixels)
+    double w_photo = 1;         // |I - gt|^2 per pixel over a random background
+    double w_laplacian = 3e4;   // mean over vertices of (h - mean of the neighbours' h)^2, metres
+    double w_shrink = 1;        // mean over vertices of h^2: what no view asks for stays on the body
+  } surface;
 };
 
 struct Stage1Config {
@@ -127,6 +147,10 @@ struct Stage3Config {
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
+  // > 0: the opacity weight fades while the merged render's L2 on the training views is more
+  // than this many dB above the best each view reached in the stage (train/filter_budget.h);
+  // 0: the fixed weight.
+  double budget_db = 0;
   double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)
   std::string levels;            // as s1.levels
 };

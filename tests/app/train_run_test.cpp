@@ -311,6 +311,49 @@ TEST_F(TrainRunTest, CtrlCInThePhotometricPoseFitLeavesNoRun) {
   EXPECT_FALSE(fs::exists(path("run")));
 }
 
+// The clothed surface: fitted before stage 1, kept in the run (rest_offsets.npy and
+// avatar.npz), read back by --resume so the resumed run ends where the uninterrupted one
+// does; Ctrl-C during the fit leaves no run.
+TEST_F(TrainRunTest, ClothedSurfaceIsKeptByTheRunAndItsResume) {
+  const std::string data = make_dataset();
+  auto with_surface = [&](const std::string& run) {
+    TrainRunOptions o = options(data, path(run));
+    o.overrides.insert(o.overrides.end(), {"s0.surface.steps=30", "s0.surface.resolution=48", "s0.surface.texture_size=16"});
+    return o;
+  };
+  const TrainRunResult full = run_training(with_surface("run"));
+  ASSERT_TRUE(full.finished);
+  EXPECT_NE(log_.find("[clothed surface] step 30/30"), std::string::npos) << log_;
+  EXPECT_NE(log_.find("clothed surface: 30 steps at 48 px"), std::string::npos) << log_;
+  const NpyArray offsets = read_npy(path("run/rest_offsets.npy"));
+  EXPECT_EQ(offsets.shape, (std::vector<int64_t>{test::scene_body().num_verts, 3}));
+  const Avatar a = load_run_avatar(RunDir(path("run")), "");
+  EXPECT_EQ(a.body.rest_offsets, offsets.as_float());
+  EXPECT_EQ(load_stage1_avatar(RunDir(path("run")), a.body).body.rest_offsets, offsets.as_float());
+  std::ifstream summary(path("run/train_summary.json"));
+  const std::string text((std::istreambuf_iterator<char>(summary)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"clothed_surface\""), std::string::npos);
+
+  TrainRunOptions o = with_surface("run2");
+  o.stop_after = 8;
+  EXPECT_FALSE(run_training(o).finished);
+  TrainRunOptions r = options("", path("run2"));
+  r.overrides.clear();
+  r.resume = true;
+  ASSERT_TRUE(run_training(r).finished);
+  const TrainCheckpoint ca = read_checkpoint(path("run/checkpoint.npz"));
+  const TrainCheckpoint cb = read_checkpoint(path("run2/checkpoint.npz"));
+  EXPECT_EQ(ca.f32, cb.f32);
+  EXPECT_EQ(load_run_avatar(RunDir(path("run2")), "").body.rest_offsets, offsets.as_float());
+  fs::remove(path("run2/rest_offsets.npy"));  // a resumed run without its displacement says so
+  expect_error([&] { run_training(r); }, {"rest_offsets.npy", "displacement is missing"});
+
+  request_interrupt();
+  expect_error([&] { run_training(with_surface("run3")); }, {"interrupted"});
+  clear_interrupt();
+  EXPECT_FALSE(fs::exists(path("run3")));
+}
+
 TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
   TrainRunOptions o = options(make_dataset(Fits::estimated), path("run"));
   o.overrides.push_back("s0.photo.steps=2");  // the photometric fit's length does not matter here
