@@ -22,6 +22,7 @@ TrainCheckpoint Trainer::Impl::save() const {
   ck.i32["meta.skipped"] = {int32_t(skipped)};
   ck.i32["meta.nan_streak"] = {nan_streak};
   ck.f64["time.seconds"] = {seconds[0], seconds[1], seconds[2]};
+  if (stage == 3) budget.save(ck.f64);
   put_gaussians(ck, "g.", g);
   if (have_s1) put_gaussians(ck, "s1g.", g_s1);
   ck.f32["betas"] = betas;
@@ -125,6 +126,7 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   if (stage <= 3) {
     begin_stage(stage);
     adam.load_state(ck.f32, where);
+    if (stage == 3) budget.load(ck.f64, where);
     if (stage == 1) {
       grad_accum = getf("densify.grad_accum");
       grad_count = getf("densify.count");

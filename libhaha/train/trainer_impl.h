@@ -26,6 +26,7 @@
 #include "render/texture.h"
 #include "train/adam.h"
 #include "train/face_stretch.h"
+#include "train/filter_budget.h"
 #include "train/gaussian_params.h"
 #include "train/knn.h"
 #include "train/levels.h"
@@ -78,6 +79,7 @@ struct Trainer::Impl {
   // Per face: how much it stretches as the arms move (train/face_stretch.h); set up only
   // when the stretch regulariser is on.
   std::vector<float> face_stretch;
+  FilterBudget budget;  // stage 3's loss budget (s3.budget_db)
   std::array<double, 3> seconds{0, 0, 0};
   int64_t skipped = 0;
   int nan_streak = 0;
@@ -135,6 +137,7 @@ struct Trainer::Impl {
     if (!cfg.use_opacity_reg) w.opacity = 0;
     if (!cfg.use_dice) w.dice = 0;
     if (!lctx.lpips) w.lpips = 0;  // no weights, or this level's images are too small
+    if (s == 3) w.opacity *= budget.scale();
     return w;
   }
 
@@ -242,6 +245,7 @@ struct Trainer::Impl {
       }
       const int n = g.size();
       adam.add_group("opacity", n, cfg.s3.lr_opacity, 1);
+      budget.begin(nf, cfg.s3.budget_db);
       adam.add_group("color", 3 * int64_t(n), cfg.s3.lr_color, 3);
       build_frame_verts();
     }
@@ -354,6 +358,12 @@ struct Trainer::Impl {
   bool step3(LossTerms& terms, std::string& event);
 
   void prune(std::string& event);
+  // After a stage-3 step (host or device): the frames it drew and its L2 to the budget.
+  void observe_budget(const LossTerms& loss) {
+    std::vector<int> frames;
+    for (int b = 0; b < cfg.batch; ++b) frames.push_back(frame_of(3, int64_t(step) * cfg.batch + b));
+    budget.observe(frames, loss.l2);
+  }
 
   StepReport run_step() {
     if (stage > 3) fail("trainer", "training has finished");
@@ -370,6 +380,7 @@ struct Trainer::Impl {
         ok = stage == 1 ? step1(r.loss, r.event) : stage == 2 ? step2(r.loss, r.event) : step3(r.loss, r.event);
       if (ok) {
         nan_streak = 0;
+        if (stage == 3) observe_budget(r.loss);
       } else {
         ++skipped;
         ++nan_streak;
