@@ -254,11 +254,12 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
       EXPECT_EQ(saved.fits, "estimated");
       EXPECT_EQ(saved.s0.steps, 0);
       EXPECT_EQ(saved.s0.photo.steps, 6000);
+      EXPECT_EQ(saved.s0.surface.steps, 2000);
       EXPECT_DOUBLE_EQ(saved.s1.lr_pose, 0.005);
       EXPECT_EQ(saved.eval_tto_steps, 100);
       EXPECT_TRUE(saved.eval_antialias);
       EXPECT_EQ(saved.s1.steps, 6);  // the user's keys stay
-      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.photo.steps=6000 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
+      EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.photo.steps=6000 s0.surface.steps=2000 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
                           "s3.depth_margin=0.01 eval.tto_steps=100 eval.antialias=true (override any with key=value"),
                 std::string::npos)
           << log_;
@@ -356,7 +357,8 @@ TEST_F(TrainRunTest, ClothedSurfaceIsKeptByTheRunAndItsResume) {
 
 TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
   TrainRunOptions o = options(make_dataset(Fits::estimated), path("run"));
-  o.overrides.push_back("s0.photo.steps=2");  // the photometric fit's length does not matter here
+  o.overrides.push_back("s0.photo.steps=2");  // the pose and surface fits' lengths do not matter here
+  o.overrides.push_back("s0.surface.steps=2");
   ASSERT_TRUE(run_training(o).finished);
   EvalRunOptions e;
   e.run_dir = path("run");
