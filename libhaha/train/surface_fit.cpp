@@ -9,6 +9,7 @@
 #include "render/avatar_render.h"
 #include "render/mesh_antialias.h"
 #include "train/adam.h"
+#include "train/fit_steps.h"
 #include "train/gaussian_params.h"
 #include "train/image_loss.h"
 #include "train/levels.h"
@@ -321,25 +322,10 @@ SurfaceFitReport fit_rest_surface(const BodyModel& body, const std::vector<Train
   // The loss before and after: the first 5% of the steps that move the surface (the
   // texture has been learned by then) and the last 5%.
   const int first = std::min(steps - 1, int(std::lround(opt.warmup * steps)));
-  const int edge = std::max(1, (steps - first) / 20);
-  const int every = std::max(1, steps / 20);
-  double start = 0, end = 0, since = 0;
-  int n_start = 0, n_end = 0, n_since = 0;
-  for (int s = 0; s < steps; ++s) {
-    const double loss = fit.step(s);
-    if (std::isfinite(loss)) {
-      if (s >= first && s < first + edge) start += loss, ++n_start;
-      if (s >= steps - edge) end += loss, ++n_end;
-      since += loss, ++n_since;
-    }
-    if (progress && ((s + 1) % every == 0 || s + 1 == steps)) {
-      progress(s + 1, steps, n_since ? since / n_since : NAN);
-      since = 0, n_since = 0;
-    }
-  }
+  const FitLossSpan span = run_fit_steps(steps, first, [&](int s) { return fit.step(s); }, progress);
   SurfaceFitReport rep = fit.report();
-  rep.loss_start = n_start ? start / n_start : NAN;
-  rep.loss_end = n_end ? end / n_end : NAN;
+  rep.loss_start = span.start;
+  rep.loss_end = span.end;
   return rep;
 }
 
