@@ -186,7 +186,6 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   LpipsWeights lw;
   if (!info.lpips_weights_path.empty()) lw = read_lpips_weights(info.lpips_weights_path);
   TrainInput input;
-  input.body = &model;
   input.premultiplied = dataset_premultiplied(ds, cfg.premultiplied);
   input.frames = dataset_frames(ds, Split::train, dataset_train_resolution(ds, cfg));
   if (input.frames.empty()) fail(info.data_path, "the dataset has no training frames");
@@ -194,11 +193,11 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
   const int num_frames = int(input.frames.size());
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
+  if (!opt.resume && fs::exists(ck_path))  // before the fits spend minutes and the surface fit writes here
+    fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
   if (cfg.s0.steps > 0 && !opt.resume)  // a resumed run has its refined poses in the checkpoint
     prefit_poses(model, input.frames, cfg.s0, log);
   if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(model, ds, input.frames, input.premultiplied, cfg, log);
-  if (!opt.resume && fs::exists(ck_path))  // before the surface fit writes into the run directory
-    fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
   ojson surface_summary;  // null without a clothed-surface fit in this call
   const BodyModel body =
       opt.resume                  ? resumed_body(model, cfg, run)
@@ -215,8 +214,6 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
         std::to_string(trainer.step_in_stage()));
   } else {
     ensure_directory(opt.run_dir);
-    if (fs::exists(ck_path))
-      fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
     write_run_info(run, info);
     const char* lp = trainer.lpips_active()           ? ", LPIPS-VGG loss on"
                      : info.lpips_weights_path.empty() ? ", LPIPS off (no --lpips-weights)"
