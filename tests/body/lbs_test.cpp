@@ -194,6 +194,30 @@ TEST(Lbs, ZeroPoseReturnsShapedTemplatePlusTransl) {
   for (size_t i = 0; i < vf.size(); ++i) EXPECT_NEAR(vf[i], verts[i], 2e-6);
 }
 
+// A rest displacement (BodyModel::rest_offsets) joins the shaped template at zero pose and
+// leaves the joints where the bare body has them, with the betas too; one of the wrong size
+// fails naming the key.
+TEST(Lbs, RestOffsetsMoveTheSurfaceNotTheJoints) {
+  BodyModel b = make_synthetic_model({});
+  std::mt19937 rng(13);
+  Params p = random_params(rng, 0.0, 10, 10, 0.0);
+  std::vector<double> bare(3 * b.num_verts), moved(bare.size()), jb(3 * kNumJoints), jm(jb.size());
+  Lbs<double>(b).forward(p.view(), bare.data(), jb.data(), nullptr);
+  std::uniform_real_distribution<float> d(-0.02f, 0.05f);
+  b.rest_offsets.resize(b.v_template.size());
+  for (float& x : b.rest_offsets) x = d(rng);
+  Lbs<double>(b).forward(p.view(), moved.data(), jm.data(), nullptr);
+  for (size_t i = 0; i < bare.size(); ++i) EXPECT_NEAR(moved[i] - bare[i], double(b.rest_offsets[i]), 1e-12);
+  EXPECT_EQ(jb, jm);
+  b.rest_offsets.pop_back();
+  try {
+    Lbs<float> bad(b);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rest_offsets"), std::string::npos) << e.what();
+  }
+}
+
 // Rotation of joint j in the world, chained independently of lbs.cpp.
 Mat3d world_rotation(const BodyModel& b, const Params& p, int j) {
   Mat3d R = Mat3d::identity();
