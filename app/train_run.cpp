@@ -131,6 +131,15 @@ BodyModel resumed_body(const BodyModel& body, const TrainConfig& cfg, const RunD
   return out;
 }
 
+// The body the trainer gets: the model, with the clothed surface fitted now or (resume) read
+// back from the run.
+BodyModel training_body(const BodyModel& model, const TrainInput& input, const TrainConfig& cfg, const RunDir& run,
+                        bool resume, const std::function<void(const std::string&)>& log, ojson& summary) {
+  if (resume) return resumed_body(model, cfg, run);
+  if (cfg.s0.surface.steps <= 0) return model;
+  return fit_clothed_surface(model, input.frames, input.premultiplied, cfg, run, log, summary);
+}
+
 }  // namespace
 
 TrainRunResult run_training(const TrainRunOptions& opt) {
@@ -199,10 +208,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
     prefit_poses(model, input.frames, cfg.s0, log);
   if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(model, ds, input.frames, input.premultiplied, cfg, log);
   ojson surface_summary;  // null without a clothed-surface fit in this call
-  const BodyModel body =
-      opt.resume                  ? resumed_body(model, cfg, run)
-      : cfg.s0.surface.steps > 0 ? fit_clothed_surface(model, input.frames, input.premultiplied, cfg, run, log, surface_summary)
-                                 : model;
+  const BodyModel body = training_body(model, input, cfg, run, opt.resume, log, surface_summary);
   input.body = &body;
   Trainer trainer(cfg, std::move(input), device);
   if (device == Device::cuda) log("device: cuda, " + gpu_description());
