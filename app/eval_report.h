@@ -30,6 +30,7 @@ struct EvalReport {
 // The method's claims checked on variants [mesh, full, naive, filtered]:
 // filtered count <= full / 2, PSNR(filtered) >= PSNR(full) - 0.5, >= PSNR(mesh) + 1.
 struct EvalChecks {
+  bool complete = false;  // the report has the mesh, full and HAHA rows the checks compare
   bool count_ok = false, psnr_vs_full_ok = false, psnr_vs_mesh_ok = false;
   double count_ratio = 0, psnr_minus_full = 0, psnr_minus_mesh = 0;
 };

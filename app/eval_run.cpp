@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <iterator>
+#include <string>
+#include <vector>
 #include <memory>
 
 #include "app/lpips_weights.h"
@@ -15,8 +18,29 @@
 
 namespace haha {
 
+namespace {
+
+// Indices into paper_variants() of the --variants keys, in the table's order; all when none.
+std::vector<size_t> chosen_rows(const std::vector<std::string>& keys) {
+  const size_t n = std::size(kPaperVariantKeys);
+  std::vector<bool> want(n, keys.empty());
+  for (const std::string& k : keys) {
+    const auto* it = std::find(std::begin(kPaperVariantKeys), std::end(kPaperVariantKeys), k);
+    if (it == std::end(kPaperVariantKeys))
+      fail("--variants", "unknown variant '" + k + "' (expected mesh, full, naive or haha)");
+    want[size_t(it - std::begin(kPaperVariantKeys))] = true;
+  }
+  std::vector<size_t> rows;
+  for (size_t i = 0; i < n; ++i)
+    if (want[i]) rows.push_back(i);
+  return rows;
+}
+
+}  // namespace
+
 EvalReport run_eval(const EvalRunOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  chosen_rows(o.variants);  // a bad key fails before minutes of loading
   if (o.background != "black" && o.background != "white")
     fail("--background", "expected black or white, got '" + o.background + "'");
   const Split split = parse_split(o.split, "--split");
@@ -80,8 +104,12 @@ EvalReport run_eval(const EvalRunOptions& o) {
       if (k == k0 && v != v0 && !(k == "fits" && v == "exact")) r.switches.push_back(k + "=" + v);
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
-  for (const EvalVariant& v : paper_variants(filtered, full)) {
+  const std::vector<EvalVariant> rows = paper_variants(filtered, full);
+  const std::vector<size_t> chosen = chosen_rows(o.variants);
+  for (size_t i : chosen) {
+    const EvalVariant& v = rows[i];
     r.variants.push_back(evaluate_variant(v, frames, opt));
+    r.variants.back().paper_row = i;
     if (o.print_table)
       std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)\n", v.name.c_str(), r.variants.back().psnr,
                   r.variants.back().ssim, r.variants.back().num_gaussians);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "app/eval_report.h"
 
@@ -22,6 +23,7 @@ struct EvalRunOptions {
   int resolution = 0;                // longer side the frames are scored at; 0: the run's training size
   int sheet_frames = 4;              // frames on the contact sheet
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
+  std::vector<std::string> variants;  // rows to evaluate (kPaperVariantKeys); empty: all four
   bool print_table = true;           // one line per variant on stdout while it runs
   int antialias = -1;                // antialiased mesh silhouette (EvalOptions::antialias): 1 on
                                      // (--antialias), 0 off (--no-antialias), -1 the run's eval.antialias

@@ -26,6 +26,10 @@ HAHA_COMMAND(eval) {
                   "test-time pose optimisation coarse to fine: 3/4 of its steps on the frames downscaled to this "
                   "longer side, the rest at the scored size (default: the run's eval.tto_resolution; 0 = all at the "
                   "scored size)");
+  sub->add_option("--variants", r.variants,
+                  "evaluate only these rows of the table: mesh, full, naive, haha (comma separated; default all; "
+                  "the requirement checks need mesh, full and haha)")
+      ->delimiter(',');
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--resolution", r.resolution,
                   "score at this longer image side in px, any size (default: the size the run trained at)");

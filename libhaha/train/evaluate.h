@@ -29,6 +29,8 @@ struct EvalVariant {
 // Gaussians (stage 1), naive merge (stage 1's Gaussians over the texture: stages 1 + 2),
 // HAHA filtered (all three stages). Both avatars must outlive the list.
 std::vector<EvalVariant> paper_variants(const Avatar& filtered, const Avatar& stage1);
+// Short names of paper_variants()'s rows, for choosing some: mesh, full, naive, haha.
+inline constexpr const char* kPaperVariantKeys[] = {"mesh", "full", "naive", "haha"};
 
 // Training time attributed to paper_variants()[variant_index] as in the paper's table, from
 // the wall time of each stage: mesh only = stage 2, full Gaussians = stage 1, naive merge =
@@ -65,6 +67,7 @@ struct FrameEval {
 
 struct VariantEval {
   std::string name;
+  size_t paper_row = 0;  // its index in paper_variants() (its training time, the checks)
   bool mesh = false, gaussians = false;
   int num_gaussians = 0;
   int64_t storage_bytes = 0;

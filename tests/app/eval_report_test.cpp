@@ -38,6 +38,7 @@ EvalReport make_report(int full_n, int filt_n, double mesh_psnr, double full_psn
   };
   r.variants = {v("mesh only", true, false, 0, mesh_psnr), v("full Gaussians", false, true, full_n, full_psnr),
                 v("naive merge", true, true, full_n, full_psnr - 0.3), v("HAHA filtered", true, true, filt_n, filt_psnr)};
+  for (size_t i = 0; i < r.variants.size(); ++i) r.variants[i].paper_row = i;
   r.regions_full = {10, 20, 30, 5, 40, 7};
   r.regions_filtered = {8, 2, 3, 0, 30, 1};
   return r;
@@ -75,6 +76,21 @@ TEST(EvalReport, JsonAndMarkdownCarryTheTable) {
   EXPECT_NE(md.find("unavailable"), std::string::npos);
   EXPECT_NE(md.find("PASS (30.0%)"), std::string::npos);
   EXPECT_NE(md.find("| legs | 40 | 30 | 75% |"), std::string::npos);
+}
+
+TEST(EvalReport, SomeRowsOnlyHaveNoChecksAndTheirOwnTrainingTime) {
+  EvalReport r = make_report(1000, 300, 25.0, 28.0, 27.8);
+  r.variants.erase(r.variants.begin(), r.variants.begin() + 3);  // `--variants haha`
+  EXPECT_FALSE(eval_checks(r).complete);
+  EXPECT_TRUE(eval_checks(make_report(1000, 300, 25.0, 28.0, 27.8)).complete);
+  const auto j = nlohmann::json::parse(eval_report_json(r));
+  ASSERT_EQ(j["variants"].size(), 1u);
+  EXPECT_EQ(j["variants"][0]["key"], "haha");
+  EXPECT_DOUBLE_EQ(j["variants"][0]["train_seconds"].get<double>(), 17.0);  // all three stages, not row 0's
+  EXPECT_FALSE(j.contains("checks"));
+  const std::string md = eval_report_markdown(r);
+  EXPECT_NE(md.find("| HAHA filtered | 300 |"), std::string::npos);
+  EXPECT_EQ(md.find("Requirements"), std::string::npos);
 }
 
 class EvalReportFiles : public testutil::TempDirTest {};
