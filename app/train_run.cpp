@@ -1,5 +1,6 @@
 #include "app/train_run.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -23,6 +24,7 @@
 #include "train/surface_fit.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
+#include "train/train_frame.h"
 #include "train/train_loop.h"
 
 namespace haha {
@@ -140,6 +142,68 @@ BodyModel training_body(const BodyModel& model, const TrainInput& input, const T
   return fit_clothed_surface(model, input.frames, input.premultiplied, cfg, run, log, summary);
 }
 
+// The filtering's validated stop for train_summary.json, and its log line.
+ojson filter_stop_summary(const Trainer& trainer, int gaussians_stage1, const std::function<void(const std::string&)>& log) {
+  const TrainConfig& cfg = trainer.config();
+  const std::vector<FilterStopPoint> pts = trainer.filter_points();
+  const int c = trainer.filter_choice();
+  ojson j;
+  j["validation_frames"] = trainer.validation_params().size();
+  j["stop_db"] = cfg.s3.stop_db;
+  j["max_kept"] = cfg.s3.max_kept;
+  ojson rows = ojson::array();
+  for (const FilterStopPoint& p : pts) rows.push_back({{"step", p.step}, {"gaussians", p.gaussians}, {"psnr", p.psnr}});
+  j["points"] = rows;
+  j["chosen"] = c;
+  double best = pts.empty() ? 0 : pts[0].psnr;
+  for (const FilterStopPoint& p : pts) best = std::max(best, p.psnr);
+  const FilterStopPoint& p = pts[size_t(c)];
+  char b[256];
+  std::snprintf(b, sizeof b,
+                "filtering stopped at step %d of %d: %d Gaussians (%.1f%% of stage 1), validation PSNR %.2f dB "
+                "(best %.2f over %zu points, %zu views)",
+                p.step, cfg.s3.steps, p.gaussians, 100.0 * p.gaussians / std::max(1, gaussians_stage1), p.psnr, best,
+                pts.size(), trainer.validation_params().size());
+  log(b);
+  return j;
+}
+
+// The finished run's files: both avatars, the refined fits of every training frame (the
+// held-out validation views' in their places), train_summary.json; the closing log line.
+void write_run_outputs(const Trainer& trainer, const RunDir& run, int W, int H, const std::vector<size_t>& held,
+                       const ojson& surface_summary, const std::function<void(const std::string&)>& log,
+                       TrainRunResult& res) {
+  const TrainConfig& cfg = trainer.config();
+  const Avatar s1 = trainer.stage1_avatar();
+  res.gaussians_stage1 = s1.gaussians.size();
+  save_avatar_npz(trainer.avatar(), run.avatar());
+  save_avatar_npz(s1, run.stage1_avatar());
+  std::vector<SmplxParams> fits = trainer.refined_params();
+  const std::vector<SmplxParams> vfits = trainer.validation_params();
+  for (size_t k = 0; k < held.size() && k < vfits.size(); ++k)
+    fits.insert(fits.begin() + std::ptrdiff_t(held[k]), vfits[k]);
+  write_smplx_params(run.refined_fits(), fits);
+  ojson s;
+  s["stage_seconds"] = {res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]};
+  s["train_seconds"] = res.stage_seconds[0] + res.stage_seconds[1] + res.stage_seconds[2];
+  s["gaussians_stage1"] = res.gaussians_stage1;
+  s["gaussians_final"] = res.gaussians;
+  s["skipped_steps"] = trainer.skipped_steps();
+  s["steps"] = {cfg.s1.steps, cfg.s2.steps, cfg.s3.steps};
+  s["frames"] = trainer.refined_params().size();
+  s["resolution"] = {W, H};
+  s["lpips"] = trainer.lpips_active();
+  s["threads"] = num_threads();
+  s["device"] = device_name(trainer.device());
+  if (!surface_summary.is_null()) s["clothed_surface"] = surface_summary;
+  if (trainer.filter_choice() >= 0) s["filter_stop"] = filter_stop_summary(trainer, res.gaussians_stage1, log);
+  write_text_file(run.train_summary(), s.dump(2) + "\n");
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "done: %d Gaussians after stage 1, %d after filtering; stages %.1f s / %.1f s / %.1f s",
+                res.gaussians_stage1, res.gaussians, res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]);
+  log(buf);
+}
+
 }  // namespace
 
 TrainRunResult run_training(const TrainRunOptions& opt) {
@@ -200,13 +264,20 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
   if (input.frames.empty()) fail(info.data_path, "the dataset has no training frames");
   input.lpips = info.lpips_weights_path.empty() ? nullptr : &lw;
   for (DatasetFrame& f : ds.frames) f.image = Image(), f.mask = Image();  // the copies are in input.frames
-  const int num_frames = int(input.frames.size());
   const int W = input.frames[0].camera.width, H = input.frames[0].camera.height;
   if (!opt.resume && fs::exists(ck_path))  // before the fits spend minutes and the surface fit writes here
     fail(ck_path, "a run already exists here; use --resume to continue it or choose another --out");
   if (cfg.s0.steps > 0 && !opt.resume)  // a resumed run has its refined poses in the checkpoint
     prefit_poses(model, input.frames, cfg.s0, log);
   if (cfg.s0.photo.steps > 0 && !opt.resume) photo_fit_poses(model, ds, input.frames, input.premultiplied, cfg, log);
+  std::vector<size_t> held;  // indices (among the training frames) of the validation views
+  if (cfg.s3.validation_every > 0) {
+    const size_t total = input.frames.size();
+    input.validation = hold_out_frames(input.frames, cfg.s3.validation_every, &held);
+    log("validation: " + std::to_string(held.size()) + " of " + std::to_string(total) +
+        " training frames held out of training, to choose where the filtering stops");
+  }
+  const int num_frames = int(input.frames.size());
   ojson surface_summary;  // null without a clothed-surface fit in this call
   const BodyModel body = training_body(model, input, cfg, run, opt.resume, log, surface_summary);
   input.body = &body;
@@ -266,30 +337,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
         " (checkpoint written; continue with --resume)");
     return res;
   }
-  // Outputs.
-  const Avatar s1 = trainer.stage1_avatar();
-  res.gaussians_stage1 = s1.gaussians.size();
-  save_avatar_npz(trainer.avatar(), run.avatar());
-  save_avatar_npz(s1, run.stage1_avatar());
-  write_smplx_params(run.refined_fits(), trainer.refined_params());
-  ojson s;
-  s["stage_seconds"] = {res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]};
-  s["train_seconds"] = res.stage_seconds[0] + res.stage_seconds[1] + res.stage_seconds[2];
-  s["gaussians_stage1"] = res.gaussians_stage1;
-  s["gaussians_final"] = res.gaussians;
-  s["skipped_steps"] = trainer.skipped_steps();
-  s["steps"] = {cfg.s1.steps, cfg.s2.steps, cfg.s3.steps};
-  s["frames"] = num_frames;
-  s["resolution"] = {W, H};
-  s["lpips"] = trainer.lpips_active();
-  s["threads"] = num_threads();
-  s["device"] = device_name(device);
-  if (!surface_summary.is_null()) s["clothed_surface"] = surface_summary;
-  write_text_file(run.train_summary(), s.dump(2) + "\n");
-  char buf[256];
-  std::snprintf(buf, sizeof buf, "done: %d Gaussians after stage 1, %d after filtering; stages %.1f s / %.1f s / %.1f s",
-                res.gaussians_stage1, res.gaussians, res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]);
-  log(buf);
+  write_run_outputs(trainer, run, W, H, held, surface_summary, log, res);
   return res;
 }
 

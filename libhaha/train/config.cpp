@@ -162,8 +162,13 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s3.opacity_mode", K::OpacityMode, &s3.opacity_mode, "opacity regulariser: sum_squares | mean_abs"});
   v.push_back({"s3.prune_threshold", K::Double, &s3.prune_threshold, "Gaussians below this opacity are deleted"});
   v.push_back({"s3.prune_every", K::Int, &s3.prune_every, "steps between prunes (and at the stage end)"});
-  v.push_back({"s3.budget_db", K::Double, &s3.budget_db,
-               "filtering: the opacity weight fades while the training views' L2 is this many dB above their best (0 = fixed weight)"});
+  v.push_back({"s3.validation_every", K::Int, &s3.validation_every,
+               "hold every Nth training frame out of training; the filtering stops on the point those views choose "
+               "(0 = the fixed weight's result)"});
+  v.push_back({"s3.stop_db", K::Double, &s3.stop_db,
+               "with validation: the fewest Gaussians within this many dB of the best validation PSNR"});
+  v.push_back({"s3.max_kept", K::Double, &s3.max_kept,
+               "with validation: the chosen point keeps at most this fraction of stage 1's Gaussians"});
   v.push_back({"s3.depth_margin", K::Double, &s3.depth_margin, "depth test margin in metres (0 = exact)"});
   v.push_back({"s3.levels", K::String, &s3.levels, "coarse to fine as s1.levels"});
 
@@ -387,6 +392,10 @@ void validate_config(const TrainConfig& c) {
   need(c.s1.max_gaussians >= 1, "s1.max_gaussians", "must be >= 1");
   need(c.s2.texture_size >= 4 && c.s2.texture_size <= 8192, "s2.texture_size", "must be in [4, 8192]");
   need(c.s3.prune_threshold < 1, "s3.prune_threshold", "must be < 1");
+  need(c.s3.validation_every == 0 || c.s3.validation_every >= 2, "s3.validation_every",
+       "must be 0 (off) or >= 2 (one frame in N held out)");
+  need(c.s3.stop_db >= 0 && std::isfinite(c.s3.stop_db), "s3.stop_db", "must be finite and >= 0");
+  need(c.s3.max_kept > 0 && c.s3.max_kept <= 1, "s3.max_kept", "must be in (0, 1]");
   need(c.s3.depth_margin <= kMaxDepthMargin, "s3.depth_margin", "must be <= 1 (metres; the avatar format's limit)");
   need(c.log_every >= 1, "log_every", "must be >= 1");
   need(c.premultiplied == "auto" || c.premultiplied == "true" || c.premultiplied == "false", "premultiplied",

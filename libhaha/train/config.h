@@ -147,10 +147,13 @@ struct Stage3Config {
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
-  // > 0: the opacity weight fades while the merged render's L2 on the training views is more
-  // than this many dB above the best each view reached in the stage (train/filter_budget.h);
-  // 0: the fixed weight.
-  double budget_db = 0;
+  // > 0: every validation_every-th training frame is held out of all three stages and the
+  // filtering ends on the point of its run chosen on those views (train/filter_stop.h): the
+  // fewest Gaussians within stop_db of the best PSNR, keeping at most max_kept of stage 1's.
+  // 0: the fixed weight's result.
+  int validation_every = 0;
+  double stop_db = 0.1;
+  double max_kept = 0.4;
   double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)
   std::string levels;            // as s1.levels
 };

@@ -26,4 +26,19 @@ TrainFrame make_train_frame(std::string name, const Camera& camera, const SmplxP
   return downscale_train_frame(t, resolution);
 }
 
+std::vector<TrainFrame> hold_out_frames(std::vector<TrainFrame>& frames, int every, std::vector<size_t>* held) {
+  std::vector<TrainFrame> kept, out;
+  if (held) held->clear();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (every >= 2 && (i + 1) % size_t(every) == 0) {
+      out.push_back(std::move(frames[i]));
+      if (held) held->push_back(i);
+    } else {
+      kept.push_back(std::move(frames[i]));
+    }
+  }
+  frames = std::move(kept);
+  return out;
+}
+
 }  // namespace haha

@@ -18,4 +18,9 @@ namespace haha {
 TrainFrame make_train_frame(std::string name, const Camera& camera, const SmplxParams& params, const Image& rgb,
                             const Image& mask, int resolution);
 
+// Moves every `every`-th frame (the last of each run of `every`) out of `frames` and returns
+// them, in order; `held` (when given) receives their indices in the original order. No frame
+// is held when there are fewer than `every` (at least every - 1 stay for training).
+std::vector<TrainFrame> hold_out_frames(std::vector<TrainFrame>& frames, int every, std::vector<size_t>* held);
+
 }  // namespace haha

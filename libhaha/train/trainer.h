@@ -37,6 +37,7 @@
 #include "core/camera.h"
 #include "core/device.h"
 #include "train/config.h"
+#include "train/filter_stop.h"
 #include "train/image_loss.h"
 #include "train/lpips.h"
 
@@ -54,6 +55,9 @@ struct TrainFrame {
 struct TrainInput {
   const BodyModel* body = nullptr;  // must outlive the trainer; needs vt / ft
   std::vector<TrainFrame> frames;
+  // Held out of every stage: where stage 3's filtering stops (s3.validation_every,
+  // train/filter_stop.h). Same size as `frames`; empty: the fixed weight's result.
+  std::vector<TrainFrame> validation;
   bool premultiplied = false;  // rgb already composited on black with the soft mask
   const LpipsWeights* lpips = nullptr;  // VGG part used for the LPIPS loss when given
 };
@@ -120,10 +124,15 @@ class Trainer {
   Avatar stage1_avatar() const;
   bool has_stage1() const;
   std::vector<SmplxParams> refined_params() const;  // per training frame, with the shared betas
+  std::vector<SmplxParams> validation_params() const;  // per validation frame, with the shared betas
   // Stage 1: per Gaussian, the densification statistic since the last densification (mean
   // over the views that saw it of |dL/d(screen centre)| in NDC units; 0 where unseen).
   std::vector<float> densify_statistic() const;
   std::array<double, 3> stage_seconds() const;      // wall time spent in each stage
+  // Stage 3 with validation views: the points its filtering was scored at and the index of
+  // the one it ended on (-1: no validation, or not scored yet).
+  std::vector<FilterStopPoint> filter_points() const;
+  int filter_choice() const;
   int64_t skipped_steps() const;
   // Whether the LPIPS-VGG loss term is in use (weights given, with a VGG part, and images
   // at least the network's minimum size).

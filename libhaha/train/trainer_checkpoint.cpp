@@ -22,7 +22,11 @@ TrainCheckpoint Trainer::Impl::save() const {
   ck.i32["meta.skipped"] = {int32_t(skipped)};
   ck.i32["meta.nan_streak"] = {nan_streak};
   ck.f64["time.seconds"] = {seconds[0], seconds[1], seconds[2]};
-  if (stage == 3) budget.save(ck.f64);
+  if (stage == 3 && validating()) {
+    stop.save(ck.f64);
+    for (const char* k : {"within", "best"})
+      if (stop.has_kept(k)) put_gaussians(ck, std::string("stop.") + k + ".", stop.kept(k));
+  }
   put_gaussians(ck, "g.", g);
   if (have_s1) put_gaussians(ck, "s1g.", g_s1);
   ck.f32["betas"] = betas;
@@ -33,6 +37,15 @@ TrainCheckpoint Trainer::Impl::save() const {
   }
   ck.f32["pose"] = pose;
   ck.f32["transl"] = transl;
+  if (validating()) {  // their poses were fitted before training; a resumed run does not fit them again
+    std::vector<float> vpose, vtransl;
+    for (const TrainFrame& f : in.validation) {
+      vpose.insert(vpose.end(), f.params.pose.begin(), f.params.pose.end());
+      vtransl.insert(vtransl.end(), f.params.transl.begin(), f.params.transl.end());
+    }
+    ck.f32["validation.pose"] = vpose;
+    ck.f32["validation.transl"] = vtransl;
+  }
   if (!texture.empty()) ck.f32["texture"] = texture;
   for (const auto& [key, v] : adam.state()) ck.f32[key] = v;
   if (stage == 1) {
@@ -100,6 +113,15 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   const auto& transl = getf("transl");
   if (pose.size() != size_t(nf) * kNumPoseValues || transl.size() != size_t(nf) * 3)
     fail(where, "pose/transl: sizes do not match the training frames");
+  const size_t nv = in.validation.size();
+  const std::vector<float>* vpose = nullptr;
+  const std::vector<float>* vtransl = nullptr;
+  if (validating()) {
+    vpose = &getf("validation.pose");
+    vtransl = &getf("validation.transl");
+    if (vpose->size() != nv * kNumPoseValues || vtransl->size() != nv * 3 || !finite_all(*vpose) || !finite_all(*vtransl))
+      fail(where, "validation.pose/transl: do not match the validation frames");
+  }
   std::vector<float> tex;
   if (ck.f32.count("texture")) {
     tex = getf("texture");
@@ -117,6 +139,11 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
     for (int q = 0; q < kNumPoseValues; ++q) p.pose[size_t(q)] = pose[size_t(i) * kNumPoseValues + size_t(q)];
     for (int q = 0; q < 3; ++q) p.transl[size_t(q)] = transl[size_t(i) * 3 + size_t(q)];
   }
+  for (size_t i = 0; vpose && i < nv; ++i) {
+    SmplxParams& p = in.validation[i].params;
+    std::copy_n(vpose->begin() + std::ptrdiff_t(i * kNumPoseValues), kNumPoseValues, p.pose.begin());
+    std::copy_n(vtransl->begin() + std::ptrdiff_t(i * 3), 3, p.transl.begin());
+  }
   texture = std::move(tex);
   tex_size = ts;
   skipped = scalar("meta.skipped");
@@ -126,7 +153,11 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   if (stage <= 3) {
     begin_stage(stage);
     adam.load_state(ck.f32, where);
-    if (stage == 3) budget.load(ck.f64, where);
+    if (stage == 3 && validating()) {
+      stop.load(ck.f64, where);
+      for (const char* k : {"within", "best"})
+        if (stop.has_kept(k)) stop.kept(k) = read_g(std::string("stop.") + k + ".");
+    }
     if (stage == 1) {
       grad_accum = getf("densify.grad_accum");
       grad_count = getf("densify.count");

@@ -26,7 +26,7 @@
 #include "render/texture.h"
 #include "train/adam.h"
 #include "train/face_stretch.h"
-#include "train/filter_budget.h"
+#include "train/filter_stop.h"
 #include "train/gaussian_params.h"
 #include "train/knn.h"
 #include "train/levels.h"
@@ -79,7 +79,7 @@ struct Trainer::Impl {
   // Per face: how much it stretches as the arms move (train/face_stretch.h); set up only
   // when the stretch regulariser is on.
   std::vector<float> face_stretch;
-  FilterBudget budget;  // stage 3's loss budget (s3.budget_db)
+  FilterStop stop;  // where stage 3's filtering ends (validation views; train/filter_stop.h)
   std::array<double, 3> seconds{0, 0, 0};
   int64_t skipped = 0;
   int nan_streak = 0;
@@ -137,7 +137,6 @@ struct Trainer::Impl {
     if (!cfg.use_opacity_reg) w.opacity = 0;
     if (!cfg.use_dice) w.dice = 0;
     if (!lctx.lpips) w.lpips = 0;  // no weights, or this level's images are too small
-    if (s == 3) w.opacity *= budget.scale();
     return w;
   }
 
@@ -245,7 +244,7 @@ struct Trainer::Impl {
       }
       const int n = g.size();
       adam.add_group("opacity", n, cfg.s3.lr_opacity, 1);
-      budget.begin(nf, cfg.s3.budget_db);
+      if (validating()) stop.begin(cfg.s3.stop_db, int(cfg.s3.max_kept * (have_s1 ? g_s1.size() : g.size())));
       adam.add_group("color", 3 * int64_t(n), cfg.s3.lr_color, 3);
       build_frame_verts();
     }
@@ -285,20 +284,7 @@ struct Trainer::Impl {
   MeshCache& mesh_of(int fi) {
     MeshCache& m = cache_all ? mesh_cache[size_t(fi)] : scratch_cache;
     if (cache_all && m.ready) return m;
-    const Camera& cam = in.frames[size_t(fi)].camera;
-    rasterize_mesh(cam, MeshView{frame_verts[size_t(fi)].data(), body.num_verts, body.faces.data(), body.num_faces},
-                   raster);
-    m.tri = raster.tri;
-    m.mask = raster.mask;
-    m.uv.resize(2 * size_t(P));
-    interpolate(P, raster.tri.data(), raster.bary.data(), body.ft.data(), body.vt.data(), 2, m.uv.data());
-    if (stage == 3) {
-      m.depth = raster.depth;
-      m.color.resize(3 * size_t(P));
-      sample_texture(texture_view(), P, m.tri.data(), m.uv.data(), m.color.data());
-      m.tri.clear();
-      m.uv.clear();
-    }
+    raster_mesh_layer(in.frames[size_t(fi)].camera, frame_verts[size_t(fi)].data(), m);
     m.ready = true;
     return m;
   }
@@ -358,12 +344,30 @@ struct Trainer::Impl {
   bool step3(LossTerms& terms, std::string& event);
 
   void prune(std::string& event);
-  // After a stage-3 step (host or device): the frames it drew and its L2 to the budget.
-  void observe_budget(const LossTerms& loss) {
-    std::vector<int> frames;
-    for (int b = 0; b < cfg.batch; ++b) frames.push_back(frame_of(3, int64_t(step) * cfg.batch + b));
-    budget.observe(frames, loss.l2);
+  bool validating() const { return cfg.s3.validation_every > 0 && !in.validation.empty(); }
+  // The mesh of a posed body in a camera into m: coverage and, at stage 2, triangle ids and
+  // UVs; at stage 3 depth and texture colour.
+  void raster_mesh_layer(const Camera& cam, const float* posed_verts, MeshCache& m) {
+    rasterize_mesh(cam, MeshView{posed_verts, body.num_verts, body.faces.data(), body.num_faces}, raster);
+    const int np = cam.width * cam.height;
+    m.tri = raster.tri;
+    m.mask = raster.mask;
+    m.uv.resize(2 * size_t(np));
+    interpolate(np, raster.tri.data(), raster.bary.data(), body.ft.data(), body.vt.data(), 2, m.uv.data());
+    if (stage == 3) {
+      m.depth = raster.depth;
+      m.color.resize(3 * size_t(np));
+      sample_texture(texture_view(), np, m.tri.data(), m.uv.data(), m.color.data());
+      m.tri.clear();
+      m.uv.clear();
+    }
   }
+  // Mean PSNR of the merged render over the validation views, on black.
+  double validation_psnr();
+  // Scores the current state for the filter's stop (host state current).
+  void score_filter(int done_steps, std::string& event);
+  // Stage 3 ends: the state becomes the point its validation chose.
+  void finish_filtering(std::string& event);
 
   StepReport run_step() {
     if (stage > 3) fail("trainer", "training has finished");
@@ -373,6 +377,10 @@ struct Trainer::Impl {
     r.steps = stage_steps(stage);
     r.event = enter_step_level();
     bool ok = true;
+    if (stage == 3 && step == 0 && validating() && stop.points().empty()) {  // the unfiltered start
+      sync_host();
+      score_filter(0, r.event);
+    }
     if (r.steps > 0) {
       if (dev)
         ok = dev->step(r.loss, r.event);
@@ -380,7 +388,6 @@ struct Trainer::Impl {
         ok = stage == 1 ? step1(r.loss, r.event) : stage == 2 ? step2(r.loss, r.event) : step3(r.loss, r.event);
       if (ok) {
         nan_streak = 0;
-        if (stage == 3) observe_budget(r.loss);
       } else {
         ++skipped;
         ++nan_streak;
@@ -399,6 +406,7 @@ struct Trainer::Impl {
     while (stage <= 3 && step >= stage_steps(stage)) {
       const auto t1 = std::chrono::steady_clock::now();
       sync_host();
+      if (stage == 3 && validating()) finish_filtering(r.event);
       ++stage;
       step = 0;
       if (stage <= 3) {

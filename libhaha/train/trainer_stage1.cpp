@@ -207,6 +207,7 @@ void Trainer::Impl::after_update(int s, std::string& event) {
   sync_host();
   if (densify_now) densify(event);
   if (prune_now) prune(event);
+  if (prune_now && validating()) score_filter(done_steps, event);
   if (dev) dev->upload();
 }
 

@@ -95,4 +95,56 @@ void Trainer::Impl::prune(std::string& event) {
   event += (event.empty() ? "" : "; ") + std::string("prune ") + std::to_string(before) + " -> " + std::to_string(g.size());
 }
 
+// ---- where the filtering stops (train/filter_stop.h) ----
+
+double Trainer::Impl::validation_psnr() {
+  activate(g, float(cfg.scale_max), act);
+  const GaussianSetView gv = gaussian_view();
+  const BodyTopology topology = topology_of(body);
+  std::vector<float> posed(3 * size_t(body.num_verts)), truth;
+  const float black[3] = {0, 0, 0};
+  double sum = 0;
+  for (const TrainFrame& f : in.validation) {
+    SmplxParams p = f.params;
+    p.betas = betas;
+    if (p.expression.size() > size_t(body.num_expr)) p.expression.resize(size_t(body.num_expr));
+    lbs.forward(p, posed.data(), nullptr, nullptr);
+    raster_mesh_layer(f.camera, posed.data(), scratch_cache);
+    scratch_cache.ready = false;  // not a training frame's cache
+    const MeshLayerView layer{scratch_cache.depth.data(), scratch_cache.color.data(), scratch_cache.mask.data()};
+    AvatarRenderRequest req;
+    req.camera = &f.camera;
+    req.body = &topology;
+    req.verts = posed.data();
+    req.face_scale_divisor = float(cfg.face_scale_divisor);
+    req.gaussians = &gv;
+    req.mesh_layer = &layer;
+    req.depth_margin = float(cfg.s3.depth_margin);
+    render_avatar(req, rbuf);
+    const int np = f.camera.width * f.camera.height;
+    truth.resize(3 * size_t(np));
+    composite_ground_truth(f.rgb.data(), f.mask.data(), np, in.premultiplied, black, truth.data());
+    sum += psnr(rbuf.image.data(), truth.data(), f.camera.height, f.camera.width);
+  }
+  return sum / double(in.validation.size());
+}
+
+void Trainer::Impl::score_filter(int done_steps, std::string& event) {
+  const double v = validation_psnr();
+  stop.observe(done_steps, v, g);
+  char b[96];
+  std::snprintf(b, sizeof b, "validation %.2f dB at %d Gaussians", v, g.size());
+  event += (event.empty() ? "" : "; ") + std::string(b);
+}
+
+void Trainer::Impl::finish_filtering(std::string& event) {
+  if (stop.points().empty()) return;
+  const FilterStopPoint& p = stop.points()[size_t(stop.chosen())];
+  if (const GaussianParams* c = stop.chosen_gaussians()) g = *c;
+  knn_idx.clear();
+  char b[128];
+  std::snprintf(b, sizeof b, "filtering ends at step %d: %d Gaussians, validation %.2f dB", p.step, p.gaussians, p.psnr);
+  event += (event.empty() ? "" : "; ") + std::string(b);
+}
+
 }  // namespace haha

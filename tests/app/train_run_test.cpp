@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "app/eval_run.h"
 #include "app/run_dir.h"
@@ -16,6 +17,7 @@
 #include "format/avatar_npz.h"
 #include "io/body_model_io.h"
 #include "io/npy.h"
+#include "io/smplx_params_io.h"
 #include "support/data_test_util.h"
 #include "support/train_test_scene.h"
 
@@ -353,6 +355,26 @@ TEST_F(TrainRunTest, ClothedSurfaceIsKeptByTheRunAndItsResume) {
   expect_error([&] { run_training(with_surface("run3")); }, {"interrupted"});
   clear_interrupt();
   EXPECT_FALSE(fs::exists(path("run3")));
+}
+
+TEST_F(TrainRunTest, ValidatedFilteringHoldsFramesOutAndSaysWhereItStopped) {
+  const std::string data = make_dataset();
+  TrainRunOptions o = options(data, path("run"));
+  o.overrides.insert(o.overrides.end(), {"s3.validation_every=3", "s3.max_kept=1"});
+  const TrainRunResult res = run_training(o);
+  ASSERT_TRUE(res.finished);
+  EXPECT_NE(log_.find("validation: 2 of 6 training frames held out"), std::string::npos) << log_;
+  EXPECT_NE(log_.find("filtering stopped at step"), std::string::npos) << log_;
+  std::ifstream in(path("run/train_summary.json"));
+  const nlohmann::json s = nlohmann::json::parse(in);
+  EXPECT_EQ(s["frames"], 4);
+  const nlohmann::json& f = s["filter_stop"];
+  EXPECT_EQ(f["validation_frames"], 2);
+  ASSERT_EQ(f["points"].size(), 4u);  // the start, prunes at 2 and 4, the end at 5
+  const int c = f["chosen"];
+  EXPECT_EQ(f["points"][size_t(c)]["gaussians"], res.gaussians);
+  // The refined fits still cover every training frame, the held-out ones in their places.
+  EXPECT_EQ(read_smplx_params(path("run/smplx_refined.npz")).size(), 6u);
 }
 
 TEST_F(TrainRunTest, EvalAntialiasesAsTheRunSaysUnlessTold) {
