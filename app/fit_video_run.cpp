@@ -326,6 +326,46 @@ Split fit_video_split(const FitVideoRunOptions& o, int kept_ordinal, int source_
   return every || end ? Split::test : Split::train;
 }
 
+FitVideoFits fit_video_poses(const FitVideoRunOptions& opt, const SmplxFitter& fit, const std::string& work,
+                             const std::function<void(const std::string&)>& say) {
+  const FrameRange range = parse_frame_range(opt.frames);
+  const std::string tool = find_keypoint_tool(opt.keypoint_tool);
+  // (1) frames
+  say("[1/4] frames from " + opt.input);
+  const InputFrames in = prepare_input_frames(opt.input, work, opt.fps, range, opt.progress);
+  const int n = int(in.paths.size());
+  say("[1/4] " + std::to_string(n) + " frames of " + std::to_string(in.width) + "x" + std::to_string(in.height) + " (" +
+      std::to_string(in.decoded) + (in.is_video ? " decoded)" : " found)"));
+  const FocalChoice focal = run_focal(opt, in);
+  char focal_line[64];
+  std::snprintf(focal_line, sizeof focal_line, "[1/4] focal length %.1f px: ", focal.focal_px);
+  say(focal_line + focal.source);
+
+  // (2) keypoints and masks
+  say("[2/4] keypoints and masks (" + tool + ")");
+  const fs::path kp_dir = fs::path(work) / "keypoints";
+  run_keypoint_tool(tool, (fs::path(work) / "frames").string(), kp_dir.string(), opt.mask, opt.keypoints == "fast",
+                    opt.progress, (fs::path(work) / "keypoints.log").string());
+  const std::vector<FitVideoInputFrame> frames = read_tool_frames(in, kp_dir);
+  int with_person = 0;
+  for (const FitVideoInputFrame& f : frames) with_person += f.keypoints.has_person();
+  say("[2/4] a person in " + std::to_string(with_person) + " of " + std::to_string(n) + " frames");
+
+  // (3) the fit
+  say("[3/4] SMPL-X fit");
+  FitVideoOptions vo;
+  vo.focal_px = focal.focal_px;
+  vo.weights.smooth_sigma = opt.robust_smoothness;
+  vo.progress = opt.progress;
+  vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
+  const FitVideoResult r = fit(frames, vo);
+  check_fit_result(r, n, in.width, in.height);
+  if (r.kept.empty()) fail(opt.input, "no frame could be fitted (see the reasons above; nothing written)");
+  say("[3/4] " + std::to_string(r.kept.size()) + " frames kept, " + std::to_string(n - int(r.kept.size())) + " dropped");
+
+  return {in, range, frames, r, focal};
+}
+
 FitVideoSummary run_fit_video(const FitVideoRunOptions& opt, const BodyModel& body, const SmplxFitter& fit) {
   const auto t0 = std::chrono::steady_clock::now();
   const SayFn say = [&](const std::string& s) {
@@ -353,39 +393,13 @@ FitVideoSummary run_fit_video(const FitVideoRunOptions& opt, const BodyModel& bo
   fs::remove_all(stage, ec);
   DirGuard work_guard(work.string()), stage_guard(stage.string());
 
-  // (1) frames
-  say("[1/4] frames from " + opt.input);
-  const InputFrames in = prepare_input_frames(opt.input, work.string(), opt.fps, range, opt.progress);
+  const FitVideoFits fits = fit_video_poses(opt, fit, work.string(), say);
+  const InputFrames& in = fits.in;
+  const std::vector<FitVideoInputFrame>& frames = fits.frames;
+  const FitVideoResult& r = fits.result;
+  const FocalChoice& focal = fits.focal;
   const int n = int(in.paths.size());
-  say("[1/4] " + std::to_string(n) + " frames of " + std::to_string(in.width) + "x" + std::to_string(in.height) + " (" +
-      std::to_string(in.decoded) + (in.is_video ? " decoded)" : " found)"));
   if (!opt.truth.empty()) check_truth_frames(truth, in.decoded);
-  const FocalChoice focal = run_focal(opt, in);
-  char focal_line[64];
-  std::snprintf(focal_line, sizeof focal_line, "[1/4] focal length %.1f px: ", focal.focal_px);
-  say(focal_line + focal.source);
-
-  // (2) keypoints and masks
-  say("[2/4] keypoints and masks (" + tool + ")");
-  const fs::path kp_dir = work / "keypoints";
-  run_keypoint_tool(tool, (work / "frames").string(), kp_dir.string(), opt.mask, opt.keypoints == "fast",
-                    opt.progress, (work / "keypoints.log").string());
-  const std::vector<FitVideoInputFrame> frames = read_tool_frames(in, kp_dir);
-  int with_person = 0;
-  for (const FitVideoInputFrame& f : frames) with_person += f.keypoints.has_person();
-  say("[2/4] a person in " + std::to_string(with_person) + " of " + std::to_string(n) + " frames");
-
-  // (3) the fit
-  say("[3/4] SMPL-X fit");
-  FitVideoOptions vo;
-  vo.focal_px = focal.focal_px;
-  vo.weights.smooth_sigma = opt.robust_smoothness;
-  vo.progress = opt.progress;
-  vo.frame_interval_s = range.step / in.fps;  // the smoothness follows the time between fitted frames
-  const FitVideoResult r = fit(frames, vo);
-  check_fit_result(r, n, in.width, in.height);
-  if (r.kept.empty()) fail(opt.input, "no frame could be fitted (see the reasons above; nothing written)");
-  say("[3/4] " + std::to_string(r.kept.size()) + " frames kept, " + std::to_string(n - int(r.kept.size())) + " dropped");
 
   // (4) the dataset, the report and the contact sheet
   FitVideoSummary s = start_summary(opt, out, in, range, focal, r);

@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include "app/fit_video_input.h"
+#include "fit/fit_video_focal.h"
 #include "fit/fit_video_report.h"
 #include "fit/fit_video.h"
 #include "body/body_model.h"
@@ -68,6 +70,19 @@ void validate_fit_video_options(const FitVideoRunOptions& opt);
 // The split of the kept frame number kept_ordinal (0-based, in kept order) decoded as frame
 // source_index: test under --test-every or --test-from, else train.
 Split fit_video_split(const FitVideoRunOptions& opt, int kept_ordinal, int source_index);
+
+// Stages 1-3 of a run, what `haha motion --from-video` shares with it: the frames (into
+// WORK/frames), the keypoint tool's output (WORK/keypoints) and the SMPL-X fit, with the
+// stage lines through `say`. Throws haha::Error when no frame could be fitted.
+struct FitVideoFits {
+  InputFrames in;
+  FrameRange range;
+  std::vector<FitVideoInputFrame> frames;
+  FitVideoResult result;
+  FocalChoice focal;
+};
+FitVideoFits fit_video_poses(const FitVideoRunOptions& opt, const SmplxFitter& fit, const std::string& work,
+                             const std::function<void(const std::string&)>& say);
 
 // The whole run. `body` draws the fitted outline on the contact sheet (and is saved with
 // save_body; with --truth it poses the true fits too when DIR has no body_model.npz); `fit`

@@ -10,6 +10,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "format/animation.h"
 #include "format/avatar_loader.h"
 #include "io/body_model_io.h"
 #include "io/camera_json.h"
@@ -41,7 +42,7 @@ Camera framing_camera(Vec3f lo, Vec3f hi, int size) {
 }  // namespace
 
 void run_render(const RenderRunOptions& o) {
-  if (o.motion.empty() && o.params.empty()) fail("render", "give --motion or --params");
+  if (o.motion.empty() && o.params.empty() && o.animation.empty()) fail("render", "give --motion, --params or --animation");
   if (o.size <= 0 || o.size > 16384) fail("--size", "must be in 1..16384");
   if (o.every <= 0) fail("--every", "must be positive");
   if (o.rate < 0 || !std::isfinite(o.rate) || o.rate > 10000) fail("--rate", "must be in (0, 10000] frames per second");
@@ -51,7 +52,11 @@ void run_render(const RenderRunOptions& o) {
   std::unique_ptr<BodyModel> model;
   if (!o.model.empty()) model = std::make_unique<BodyModel>(load_body_model(o.model));
   const AvatarLoader avatar = AvatarLoader::load(o.avatar, model.get(), o.max_gaussians);
-  Motion motion = read_motion(o.motion.empty() ? o.params : o.motion, model.get());
+  const std::string source = !o.animation.empty() ? o.avatar : o.motion.empty() ? o.params : o.motion;
+  // A file's animation becomes a motion like any other: one render path for both.
+  Motion motion = !o.animation.empty()
+                      ? animation_motion(avatar.animations()[find_animation(avatar.animations(), o.animation, o.avatar)])
+                      : read_motion(source, model.get());
   PosedAvatar posed;
   {
     // AMASS motions are Z-up: turn them about the avatar's own rest pelvis (the posed
@@ -65,7 +70,7 @@ void run_render(const RenderRunOptions& o) {
     if (o.max_frames > 0 && int(frames.size()) >= o.max_frames) break;
     frames.push_back(t);
   }
-  if (frames.empty()) fail(o.motion.empty() ? o.params : o.motion, "no frames");
+  if (frames.empty()) fail(source, "no frames");
 
   Camera cam;
   if (!o.camera.empty()) {

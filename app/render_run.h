@@ -1,5 +1,5 @@
 // `haha render`: repose a packed avatar with a motion (AMASS-style or native SMPL-X
-// parameters; AMASS's Z-up world is turned to Y-up about the avatar's rest pelvis, and the
+// parameters, or the file's own glTF animation sampled at its rate, format/animation.h; AMASS's Z-up world is turned to Y-up about the avatar's rest pelvis, and the
 // motion optionally resampled, io/motion.h) and render every frame with the merged mesh + Gaussian renderer
 // (format/avatar_loader.h) to DIR/frame_%05d.png, optionally encoding an mp4 with the
 // ffmpeg command-line tool.
@@ -13,7 +13,8 @@ struct RenderRunOptions {
   std::string avatar;         // .glb
   int max_gaussians = 0;      // > 0: load only the importance tiers that fit (pack --lod)
   std::string motion;         // AMASS-style motion .npz, or
-  std::string params;         // a native SMPL-X parameter file
+  std::string params;         // a native SMPL-X parameter file, or
+  std::string animation;      // the name or index of one of the avatar's glTF animations
   std::string out;            // directory for frame_%05d.png
   std::string camera;         // cam.json; empty: a front camera framing the whole motion
   std::string video;          // also encode an .mp4 (ffmpeg) when set

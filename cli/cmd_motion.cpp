@@ -3,7 +3,11 @@
 #include <memory>
 
 #include "app/motion_run.h"
+#include "app/motion_video_run.h"
 #include "command.h"
+#include "core/interrupt.h"
+#include "data/synth_dataset.h"
+#include "fit/fit_video.h"
 
 HAHA_COMMAND(motion) {
   auto o = std::make_shared<haha::MotionRunOptions>();
@@ -12,5 +16,22 @@ HAHA_COMMAND(motion) {
   sub->add_option("--kind", o->kind, "wave, walk or turn")->capture_default_str();
   sub->add_option("--frames", o->frames, "number of frames (one loop of the motion)")->capture_default_str();
   sub->add_option("--fps", o->fps, "frame rate stored in the file")->capture_default_str();
-  sub->callback([o] { haha::run_motion(*o); });
+  auto v = std::make_shared<haha::MotionVideoOptions>();
+  auto model = std::make_shared<std::string>();
+  auto* from = sub->add_option("--from-video", v->fit.input,
+                               "a video (or image folder) of a person: its fitted poses as the motion (haha fit-video's fit)");
+  sub->add_option("--video-fps", v->fit.fps, "resample the video to this rate first (0: every frame)");
+  sub->add_option("--focal-35mm", v->fit.focal_35mm, "the lens's 35 mm-equivalent focal length in mm (with --from-video)");
+  sub->add_option("--keypoint-tool", v->fit.keypoint_tool, "tools/keypoints folder (default: found next to haha)");
+  sub->add_option("--model", *model, "SMPL-X model .npz to fit and to scale the motion to (default: the procedural body)");
+  sub->add_option("--truth", v->truth, "dataset with the video's true fits: print joint, jitter and foot-sliding errors");
+  sub->add_flag("--no-foot-lock", [v](int64_t) { v->motion.lock_feet = false; }, "do not hold feet in place during contacts");
+  sub->callback([o, v, model, from] {
+    if (from->count() == 0) return haha::run_motion(*o);
+    v->out = o->out;
+    haha::install_interrupt_handler();
+    const haha::BodyModel body = haha::synth_body(*model, haha::BodyResolution::full, 0);
+    haha::run_motion_from_video(*v, body, [&body](const std::vector<haha::FitVideoInputFrame>& frames,
+                                                  const haha::FitVideoOptions& vo) { return haha::fit_video(body, frames, vo); });
+  });
 }

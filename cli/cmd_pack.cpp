@@ -15,6 +15,8 @@ HAHA_COMMAND(pack) {
     int texture_size = 0, texture_quality = haha::PackOptions{}.texture_quality;
     bool lossless = false, splats = false, correctives = false, no_correctives = false, keep_face_order = false, normals = false;
     int lod_tiers = 1;
+    haha::PackAnimations animations;
+    int animation_bits = haha::kDefaultAnimationRotationBits;
   };
   auto o = std::make_shared<Opts>();
   auto* sub = app.add_subcommand("pack", "Pack a trained run into one .glb avatar (skinned textured mesh + Gaussians)");
@@ -54,8 +56,21 @@ HAHA_COMMAND(pack) {
   sub->add_option("--pose-corrective-codec", o->corrective_codec,
                   "compact pose correctives: t=threshold (relative block norm kept per joint), r=rank per joint (1..9), "
                   "b=coefficient bits (0 = float32), e=energy kept per joint (sets the rank, at most r), e.g. t=0.02,r=4,e=0.995,b=6");
+  sub->add_option("--animation", o->animations.files,
+                  "a motion .npz (haha motion, AMASS, SMPL-X parameters) stored as a glTF animation of the joints; repeatable")
+      ->take_all()
+      ->allow_extra_args(false);
+  sub->add_option("--animation-name", o->animations.names, "name of each --animation, in order (default: the file's stem)")
+      ->take_all()
+      ->allow_extra_args(false);
+  sub->add_option("--animation-rate", o->animations.rate, "resample the animations to this many frames per second (default: the motion's rate)");
+  sub->add_option("--animation-bits", o->animation_bits,
+                  "bits per stored rotation component: 16 (normalized short), 8 (normalized byte) or 0 (float32)")
+      ->capture_default_str();
   sub->callback([o] {
     haha::PackOptions opt;
+    opt.animation_bits = o->animation_bits;
+    if (o->animations.files.empty() && !o->animations.names.empty()) haha::fail("--animation-name", "needs --animation");
     opt.lossless = o->lossless;
     opt.texture_codec = haha::texture_codec_from_name(o->texture);
     opt.texture_size = o->texture_size;
@@ -82,9 +97,10 @@ HAHA_COMMAND(pack) {
     if (o->lossless && (!o->gaussian_bits.empty() || !o->mesh_bits.empty())) {
       haha::fail("--lossless", "stores float32 everywhere; it cannot be combined with --gaussian-bits/--mesh-bits");
     }
-    const haha::PackedSizes s = haha::pack_run(o->run, o->model, o->out, opt);
+    const haha::PackedSizes s = haha::pack_run(o->run, o->model, o->out, opt, o->animations);
     std::printf("%s: %zu bytes: %d Gaussians %zu B, mesh (%d vertices, %d faces) %zu B, texture %zu B%s, pose correctives %zu B\n",
                 o->out.c_str(), s.total, s.num_gaussians, s.gaussians, s.num_vertices, s.num_faces, s.mesh, s.texture,
                 o->lossless ? " (+ exact copy)" : "", s.pose_correctives);
+    if (!o->animations.files.empty()) std::printf("%s: %zu animation(s) %zu B\n", o->out.c_str(), o->animations.files.size(), s.animations);
   });
 }

@@ -16,7 +16,10 @@ HAHA_COMMAND(render) {
   sub->add_option("avatar", o->run.avatar, "avatar .glb")->required();
   auto* mo = sub->add_option("--motion", o->run.motion, "AMASS-style motion .npz (poses (T,165|156), trans, mocap_frame_rate; Z-up unless it has `up`)");
   auto* po = sub->add_option("--params", o->run.params, "native SMPL-X parameter file (global_orient, body_pose, ...)");
+  auto* an = sub->add_option("--animation", o->run.animation, "play the avatar's own glTF animation NAME or INDEX (haha pack --animation)");
   mo->excludes(po);
+  an->excludes(mo);
+  an->excludes(po);
   sub->add_option("--out", o->run.out, "output directory for frame_%05d.png")->required();
   sub->add_option("--model", o->run.model,
                   "body model .npz the avatar was trained on: supplies its pose correctives when the file has none");

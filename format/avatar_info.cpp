@@ -108,7 +108,12 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
                 {"texture", s.texture},
                 {"textureExact", s.texture_exact},
                 {"poseCorrectives", s.pose_correctives},
-                {"splats", s.splats}};
+                {"splats", s.splats},
+                {"animations", s.animations}};
+  j["animations"] = nlohmann::json::array();
+  for (const AvatarAnimation& a : u.animations) {
+    j["animations"].push_back({{"name", a.name}, {"duration", a.duration}, {"frames", a.frames}, {"bytes", a.bytes}});
+  }
   j["quantizationBits"] = {{"gaussians", i.gaussian_bits}, {"mesh", i.mesh_bits}};
   j["scaleEncoding"] = i.scale_encoding;
   j["rotationEncoding"] = i.rotation_encoding;
@@ -190,6 +195,11 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   }
   o << (i.trained_with_pose_correctives ? "; trained with them" : "; trained without") << "\n";
   o << "  splats        " << (i.splats ? "KHR_gaussian_splatting primitive, skinned in version 3 (" + bytes(s.splats) + ")" : std::string("none")) << "\n";
+  for (size_t k = 0; k < u.animations.size(); ++k) {
+    const AvatarAnimation& a = u.animations[k];
+    std::snprintf(buf, sizeof buf, "%.3g s, %d frames at %.4g fps, ", a.duration, a.frames, animation_rate(a));
+    o << (k ? "                " : "  animations    ") << k << " '" << a.name << "': " << buf << bytes(a.bytes) << "\n";
+  }
   o << "  JSON          " << bytes(s.json) << "\n";
   o << "  extensions    used:";
   for (auto& e : i.extensions_used) o << " " << e;

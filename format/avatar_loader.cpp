@@ -37,6 +37,7 @@ struct AvatarLoader::State {
   std::unique_ptr<Lbs<float>> lbs;  // points into avatar.body: State never moves (unique_ptr)
   bool shaped = false;              // body has shape directions: apply the avatar's betas
   bool wants_correctives = false;   // the avatar was trained with pose correctives
+  std::vector<AvatarAnimation> animations;
 };
 
 AvatarLoader::AvatarLoader(Avatar avatar) : s_(std::make_unique<State>()) {
@@ -55,6 +56,7 @@ AvatarLoader AvatarLoader::load(const std::string& path, const BodyModel* model,
   AvatarLoader rt(std::move(u.avatar));
   rt.s_->wants_correctives = u.info.trained_with_pose_correctives || !u.info.pose_correctives.empty();
   if (model && !rt.has_pose_correctives()) rt.set_pose_correctives(*model);
+  rt.set_animations(std::move(u.animations));
   return rt;
 }
 
@@ -67,6 +69,9 @@ int AvatarLoader::num_verts() const { return s_->avatar.body.num_verts; }
 int AvatarLoader::num_gaussians() const { return s_->avatar.gaussians.size(); }
 bool AvatarLoader::has_pose_correctives() const { return !s_->avatar.body.posedirs.empty(); }
 bool AvatarLoader::missing_pose_correctives() const { return s_->wants_correctives && !has_pose_correctives(); }
+
+const std::vector<AvatarAnimation>& AvatarLoader::animations() const { return s_->animations; }
+void AvatarLoader::set_animations(std::vector<AvatarAnimation> animations) { s_->animations = std::move(animations); }
 
 void AvatarLoader::set_pose_correctives(const BodyModel& model) {
   BodyModel& b = s_->avatar.body;

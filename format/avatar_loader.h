@@ -19,6 +19,7 @@
 #include "body/avatar.h"
 #include "body/smplx_params.h"
 #include "core/camera.h"
+#include "format/animation.h"
 #include "render/avatar_render.h"
 
 namespace haha {
@@ -76,6 +77,11 @@ class AvatarLoader {
   // avatar was trained on) when the file did not embed them. Throws if the vertex count
   // or the faces differ.
   void set_pose_correctives(const BodyModel& model);
+
+  // The file's glTF animations (load() reads them; an in-memory avatar has none until
+  // set). Play one with sample_animation / animation_motion (format/animation.h) + repose.
+  const std::vector<AvatarAnimation>& animations() const;
+  void set_animations(std::vector<AvatarAnimation> animations);
 
   // Poses the avatar: params.pose (55 x axis-angle, SMPL-X order) and params.transl;
   // params.betas / params.expression are ignored (the subject's own are baked in).

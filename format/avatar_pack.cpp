@@ -922,6 +922,12 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
     add_compact_pose_correctives(d, b, opt.pose_corrective_codec);
   }
   if (opt.khr_gaussian_splatting && a.gaussians.size() > 0) add_rest_splats(d, a, rest);  // glTF has no empty accessor
+  Json animations;
+  if (!opt.animations.empty()) {
+    std::vector<size_t> each;
+    animations = pack_animations(d.bin, d.accessors, opt.animations, rest.joints, opt.animation_bits, &each);
+    for (size_t b : each) d.sz.animations += b;
+  }
 
   Json gltf;
   gltf["asset"] = {{"version", "2.0"}, {"generator", "haha pack (HAHA_gaussian_avatar v" + std::to_string(kAvatarFormatVersion) + ")"}};
@@ -940,6 +946,7 @@ std::vector<uint8_t> pack_avatar(const Avatar& a, const PackOptions& opt, Packed
   gltf["accessors"] = d.accessors;
   gltf["bufferViews"] = d.bin.views();
   gltf["buffers"] = Json::array({{{"byteLength", d.bin.bytes().size()}}});
+  if (!animations.is_null()) gltf["animations"] = animations;
 
   std::vector<uint8_t> out = glb::write_glb(gltf, d.bin.bytes());
   d.sz.total = out.size();

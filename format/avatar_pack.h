@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "body/avatar.h"
+#include "format/animation_pack.h"
 #include "format/image_codec.h"
 #include "format/pose_correctives_codec.h"
 
@@ -100,6 +101,10 @@ struct PackOptions {
   // Levels of detail: the Gaussians in this many importance tiers, one point cloud each,
   // prefixes N/2^(T-1), ..., N (format/gaussian_lod.h); 1 = one point cloud.
   int lod_tiers = 1;
+  // glTF animations of the joint nodes (format/animation_pack.h), after every other part:
+  // without them the file is byte for byte what it was before animations existed.
+  std::vector<AnimationSource> animations;
+  int animation_bits = kDefaultAnimationRotationBits;  // per rotation component: 16, 8 or 0 (float32)
 };
 
 // The jpg / webp quality a texture of side `side` is packed at by default: 90 up to 512^2
@@ -120,6 +125,7 @@ struct PackedSizes {
   size_t texture_exact = 0;   // float32 texture copy (lossless only)
   size_t pose_correctives = 0;
   size_t splats = 0;          // KHR_gaussian_splatting primitive
+  size_t animations = 0;      // glTF animations (key times, translations, rotations)
   int num_gaussians = 0;
   int num_vertices = 0;       // glTF vertices (body vertices split at UV seams)
   int num_faces = 0;

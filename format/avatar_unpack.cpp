@@ -1,4 +1,5 @@
 #include "format/avatar_unpack.h"
+#include "format/animation_unpack.h"
 
 #include <algorithm>
 #include <cmath>
@@ -812,6 +813,8 @@ UnpackedAvatar unpack_impl(const uint8_t* data, size_t size, const std::string& 
   const glb::Glb g = glb::parse_glb(data, size, where);
   UnpackedAvatar out;
   AvatarReader(g, where, opt, out).read();
+  out.animations = read_animations(g, where);
+  for (const AvatarAnimation& a : out.animations) out.info.sizes.animations += a.bytes;
   out.info.sizes.total = size;
   return out;
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "body/avatar.h"
+#include "format/animation.h"
 #include "format/avatar_pack.h"
 
 namespace haha {
@@ -63,6 +64,7 @@ struct UnpackedAvatar {
   Avatar avatar;
   AvatarFileInfo info;
   std::vector<uint8_t> texture_image;  // the encoded image as stored (png/jpeg/webp)
+  std::vector<AvatarAnimation> animations;  // the file's glTF animations (format/animation.h)
 };
 
 UnpackedAvatar unpack_avatar(const uint8_t* data, size_t size, const std::string& where,

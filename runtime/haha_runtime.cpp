@@ -164,6 +164,7 @@ haha_avatar* make_avatar(const uint8_t* data, size_t size, const std::string& na
         classified(HAHA_ERROR_FORMAT, [&] { return haha::load_body_model(body_model_path); });
     classified(HAHA_ERROR_ARGUMENT, [&] { rt.set_pose_correctives(model); });
   }
+  rt.set_animations(std::move(u.animations));
   return new haha_avatar{std::move(rt), wanted};
 }
 
@@ -184,6 +185,15 @@ uint8_t to_byte(float v) {
   // NaN goes to 0 (comparisons are false), like a clamp would for finite values.
   const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
   return uint8_t(std::lround(c * 255.0f));
+}
+
+// Animation `index` of the avatar's file, or HAHA_ERROR_ARGUMENT.
+const haha::AvatarAnimation& animation_of(const haha_avatar* avatar, int32_t index, const char* call) {
+  require(avatar != nullptr, call, "avatar is NULL");
+  const auto& list = avatar->rt.animations();
+  if (index < 0 || size_t(index) >= list.size())
+    argument_error(call, "animation " + std::to_string(index) + " is not in 0.." + std::to_string(int64_t(list.size()) - 1));
+  return list[size_t(index)];
 }
 
 }  // namespace
@@ -506,6 +516,39 @@ HAHA_API haha_status haha_render(haha_posed* posed, const haha_camera* camera, c
 }
 
 // ---- Motions and images -------------------------------------------------------------------
+
+HAHA_API haha_status haha_avatar_animation_count(const haha_avatar* avatar, int32_t* count) {
+  return guarded("haha_avatar_animation_count", HAHA_ERROR_INTERNAL, [&] {
+    require(avatar != nullptr, "haha_avatar_animation_count", "avatar is NULL");
+    require(count != nullptr, "haha_avatar_animation_count", "count is NULL");
+    *count = int32_t(avatar->rt.animations().size());
+  });
+}
+
+HAHA_API haha_status haha_avatar_animation_info(const haha_avatar* avatar, int32_t index, char* name, size_t name_capacity,
+                                                double* duration, int32_t* frames, double* fps) {
+  const char* call = "haha_avatar_animation_info";
+  return guarded(call, HAHA_ERROR_INTERNAL, [&] {
+    const haha::AvatarAnimation& a = animation_of(avatar, index, call);
+    if (name) require_capacity(call, "name", name_capacity, a.name.size() + 1);
+    if (name) std::memcpy(name, a.name.c_str(), a.name.size() + 1);
+    if (duration) *duration = a.duration;
+    if (frames) *frames = a.frames;
+    if (fps) *fps = haha::animation_rate(a);
+  });
+}
+
+HAHA_API haha_status haha_avatar_sample_animation(const haha_avatar* avatar, int32_t index, double time, float* pose,
+                                                  float* translation) {
+  const char* call = "haha_avatar_sample_animation";
+  return guarded(call, HAHA_ERROR_INTERNAL, [&] {
+    const haha::AvatarAnimation& a = animation_of(avatar, index, call);
+    if (!std::isfinite(time)) argument_error(call, "time is not finite");
+    const haha::SmplxParams p = haha::sample_animation(a, time);
+    if (pose) std::memcpy(pose, p.pose.data(), sizeof(float) * HAHA_NUM_POSE_VALUES);
+    if (translation) std::memcpy(translation, p.transl.data(), sizeof(float) * 3);
+  });
+}
 
 HAHA_API haha_status haha_motion_load(const char* path, haha_motion** out_motion) {
   return guarded("haha_motion_load", HAHA_ERROR_FORMAT, [&] {

@@ -43,8 +43,18 @@ std::string gender_of(const Npz& z) {
 
 using V3 = Vec3<double>;
 
-// Shortest-arc slerp between unit quaternions.
-Quat<double> slerp(Quat<double> a, Quat<double> b, double s) {
+std::vector<float> lerp(const std::vector<float>& a, const std::vector<float>& b, double s) {
+  std::vector<float> out(std::max(a.size(), b.size()), 0.0f);
+  for (size_t i = 0; i < out.size(); ++i) {
+    const double x = i < a.size() ? a[i] : 0.0, y = i < b.size() ? b[i] : 0.0;
+    out[i] = float(x + s * (y - x));
+  }
+  return out;
+}
+
+}  // namespace
+
+Quat<double> slerp_shortest(Quat<double> a, Quat<double> b, double s) {
   double d = a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z;
   if (d < 0) b = {-b.w, -b.x, -b.y, -b.z}, d = -d;
   double wa = 1 - s, wb = s;
@@ -57,17 +67,6 @@ Quat<double> slerp(Quat<double> a, Quat<double> b, double s) {
   const double n = std::sqrt(qnorm2(q));
   return {q.w / n, q.x / n, q.y / n, q.z / n};
 }
-
-std::vector<float> lerp(const std::vector<float>& a, const std::vector<float>& b, double s) {
-  std::vector<float> out(std::max(a.size(), b.size()), 0.0f);
-  for (size_t i = 0; i < out.size(); ++i) {
-    const double x = i < a.size() ? a[i] : 0.0, y = i < b.size() ? b[i] : 0.0;
-    out[i] = float(x + s * (y - x));
-  }
-  return out;
-}
-
-}  // namespace
 
 Motion read_amass(const std::string& path) {
   const Npz z = Npz::read(path);
@@ -163,7 +162,7 @@ Motion resample_motion(const Motion& m, double fps) {
     for (int j = 0; j < kNumJoints; ++j) {
       const V3 wa(a.pose[size_t(3 * j)], a.pose[size_t(3 * j + 1)], a.pose[size_t(3 * j + 2)]);
       const V3 wb(b.pose[size_t(3 * j)], b.pose[size_t(3 * j + 1)], b.pose[size_t(3 * j + 2)]);
-      const V3 w = quat_to_axis_angle(slerp(axis_angle_to_quat(wa), axis_angle_to_quat(wb), s));
+      const V3 w = quat_to_axis_angle(slerp_shortest(axis_angle_to_quat(wa), axis_angle_to_quat(wb), s));
       for (int c = 0; c < 3; ++c) f.pose[size_t(3 * j + c)] = float(w[c]);
     }
     for (int c = 0; c < 3; ++c) f.transl[size_t(c)] = float(a.transl[size_t(c)] + s * (b.transl[size_t(c)] - a.transl[size_t(c)]));

@@ -19,6 +19,7 @@
 
 #include "body/body_model.h"
 #include "body/smplx_params.h"
+#include "core/math.h"
 
 namespace haha {
 
@@ -46,6 +47,11 @@ Motion read_motion(const std::string& path, const BodyModel* model = nullptr);
 // betas: the posed pelvis is J0 + transl), so the caller passes it in (e.g. the pelvis of
 // a repose at zero pose and zero transl). No-op when m.up is already +Y.
 void motion_to_y_up(Motion& m, const std::array<double, 3>& rest_pelvis);
+
+// Shortest-arc spherical interpolation between unit quaternions (w, x, y, z), s in [0, 1];
+// the result is unit. The one slerp of motions: resample_motion and the .glb animations'
+// LINEAR rotation channels (format/animation.h) both use it.
+Quat<double> slerp_shortest(Quat<double> a, Quat<double> b, double s);
 
 // The motion resampled to `fps` over the same duration: frame k at time k / fps (the last
 // at or before the last source frame). Joint rotations are slerped between the two source

@@ -18,6 +18,7 @@ axis-angle (haha.JOINT_NAMES); OpenCV pinhole cameras (haha.Camera). The library
 through HAHA_RUNTIME_LIBRARY, next to the package, or on the loader's path (haha._library).
 """
 from ._library import library_path, lib
+from .animation import Animation
 from .avatar import Avatar
 from .camera import Camera, framing_camera
 from .errors import (ArgumentError, FileError, FormatError, HahaError, InternalError, LibraryNotFoundError,
@@ -30,7 +31,7 @@ from .pose_state import PoseState, Posed
 NUM_JOINTS = 55
 NUM_POSE_VALUES = 165
 
-__all__ = ["Avatar", "Camera", "Motion", "PoseState", "Posed", "framing_camera", "write_png", "JOINT_NAMES",
+__all__ = ["Animation", "Avatar", "Camera", "Motion", "PoseState", "Posed", "framing_camera", "write_png", "JOINT_NAMES",
            "joint_index", "NUM_JOINTS", "NUM_POSE_VALUES", "runtime_version", "set_num_threads", "library_path",
            "HahaError", "ArgumentError", "FileError", "FormatError", "StateError", "OutOfMemoryError",
            "InternalError", "LibraryNotFoundError"]

@@ -5,6 +5,7 @@ import os
 import numpy as np
 
 from ._library import AvatarInfo, Owned, call
+from .animation import animation_index, list_animations, sample_animation
 from .errors import ArgumentError
 from .pose_state import PoseState
 
@@ -100,6 +101,16 @@ class Avatar:
         out = np.zeros((h, w, 3), dtype=np.uint8)
         call("haha_avatar_texture", self._handle, out.ctypes.data_as(ctypes.POINTER(ctypes.c_uint8)), out.size)
         return out
+
+    @property
+    def animations(self):
+        """[haha.Animation(index, name, duration, frames, fps), ...]: the file's glTF animations."""
+        return list_animations(self._handle)
+
+    def sample_animation(self, animation, time):
+        """(pose float32[165], transl float32[3]) of an animation (name or index) at `time` seconds,
+        interpolated as glTF viewers play it; pass them to repose() or render()."""
+        return sample_animation(self._handle, animation_index(self.animations, animation), time)
 
     def pose_state(self):
         """A new PoseState of this avatar (its own repose / render scratch, for another thread)."""

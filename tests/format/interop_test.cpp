@@ -110,5 +110,58 @@ TEST(FormatInterop, KhrGaussianSplattingPrimitiveHoldsTheRestPoseGaussians) {
   }
 }
 
+// tinygltf reads the animations as a viewer would: one per motion, a rotation channel per
+// moving joint node with normalized short (x, y, z, w) keys at k / fps, the root's
+// translation J0 + transl.
+TEST(FormatInterop, TinyGltfReadsTheAnimations) {
+  const Avatar a = test::make_test_avatar(20, 2, 8, 8);
+  Motion m;
+  m.fps = 25;
+  for (int k = 0; k < 10; ++k) {
+    SmplxParams p;
+    p.pose[3 * 16 + 2] = -0.1f * float(k);  // left shoulder about z
+    p.transl = {0.0f, 0.01f * float(k), 0.0f};
+    m.frames.push_back(p);
+  }
+  PackOptions opt;
+  opt.texture_codec = TextureCodec::png;
+  opt.animations = {{"lower_arm", m}};
+  const std::vector<uint8_t> bytes = pack_avatar(a, opt);
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model g;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromMemory(&g, &err, &warn, bytes.data(), unsigned(bytes.size()))) << err;
+  ASSERT_EQ(g.animations.size(), 1u);
+  const tinygltf::Animation& an = g.animations[0];
+  EXPECT_EQ(an.name, "lower_arm");
+  bool shoulder = false, root_move = false;
+  for (const tinygltf::AnimationChannel& ch : an.channels) {
+    const tinygltf::AnimationSampler& s = an.samplers[size_t(ch.sampler)];
+    EXPECT_EQ(s.interpolation, "LINEAR");
+    const std::vector<float> t = read_accessor<float>(g, s.input, 1);
+    if (ch.target_node == 16 && ch.target_path == "rotation") {
+      shoulder = true;
+      const tinygltf::Accessor& out = g.accessors[size_t(s.output)];
+      EXPECT_EQ(out.componentType, TINYGLTF_COMPONENT_TYPE_SHORT);
+      EXPECT_TRUE(out.normalized);
+      const std::vector<int16_t> q = read_accessor<int16_t>(g, s.output, 4);
+      ASSERT_EQ(t.size(), 10u);
+      for (size_t k = 0; k < 10; ++k) {
+        EXPECT_FLOAT_EQ(t[k], float(double(k) / 25));
+        const double half = 0.05 * double(k);  // half the angle about -z
+        EXPECT_NEAR(q[k * 4 + 2] / 32767.0, -std::sin(half), 1.0 / 32767);
+        EXPECT_NEAR(q[k * 4 + 3] / 32767.0, std::cos(half), 1.0 / 32767);
+      }
+    }
+    if (ch.target_node == 0 && ch.target_path == "translation") {
+      root_move = true;
+      const std::vector<float> v = read_accessor<float>(g, s.output, 3);
+      EXPECT_NEAR(v[9 * 3 + 1] - g.nodes[0].translation[1], 0.09, 1e-6);
+    }
+    EXPECT_TRUE(ch.target_node == 0 || ch.target_path == "rotation");
+  }
+  EXPECT_TRUE(shoulder && root_move);
+}
+
 }  // namespace
 }  // namespace haha

@@ -5,6 +5,8 @@
 // is missing.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <unistd.h>
 
 #include <cstdio>
@@ -129,6 +131,32 @@ TEST_F(FormatValidator, RealisticAvatarHasZeroErrors) {
   // No required extension at all: any glTF 2.0 reader may open it.
   const Report r = validate(p);
   EXPECT_TRUE(r.json["info"].value("extensionsRequired", nlohmann::json::array()).empty()) << r.json["info"].dump(1);
+}
+
+TEST_F(FormatValidator, AnimationsHaveZeroErrorsAndWarnings) {
+  const Avatar a = test::make_test_avatar(100);
+  Motion walk, still;
+  walk.fps = 30;
+  for (int k = 0; k < 40; ++k) {
+    SmplxParams p;
+    p.pose[1] = 0.2f * float(k);  // the root turns past pi: keys change quaternion sign
+    p.pose[3 * 16 + 2] = -std::sin(0.3f * float(k));
+    p.pose[3 * 18 + 1] = -0.5f;  // still, not at rest: a one-key track
+    p.transl = {0.02f * float(k), 0.0f, 0.0f};
+    walk.frames.push_back(p);
+  }
+  still.frames.resize(1);
+  for (int bits : {16, 8, 0}) {
+    PackOptions o;
+    o.mesh_compression = MeshCompression::none;  // nothing hidden from the validator in Draco
+    o.animation_bits = bits;
+    o.animations = {{"walk", walk}, {"still", still}};
+    const fs::path p = write("animated" + std::to_string(bits) + ".glb", a, o);
+    expect_no_errors(p, a.body.num_faces);
+    const Report r = validate(p);
+    EXPECT_EQ(r.json["issues"]["numWarnings"].get<int>(), 0) << r.json["issues"].dump(1);
+    EXPECT_EQ(r.json["info"].value("animationCount", -1), 2) << r.json["info"].dump(1);
+  }
 }
 
 TEST_F(FormatValidator, SplatPrimitiveOnlyTripsTheValidatorsUnknownAttributeNames) {

@@ -148,6 +148,23 @@ def test_equals_c_sample(haha, args, glb, motion_path):
               "motion frame %d: the package's render equals haha_sample_c's frame (max difference %d)" % (f, diff))
 
 
+def test_animation(haha, args, motion_path):
+    """The file's animation, sampled by the runtime, against the motion it was packed from."""
+    avatar = haha.Avatar(os.path.join(args.work, "animated.glb"))
+    anims = avatar.animations
+    check(len(anims) == 1 and anims[0].name == "fixture" and anims[0].frames == 3 and abs(anims[0].fps - 30) < 1e-3,
+          "animations: %r" % (anims,))
+    check(haha.Avatar(os.path.join(args.work, "avatar.glb")).animations == [], "a file without animations lists none")
+    motion = haha.Motion(motion_path, avatar)
+    for f, (pose, transl) in enumerate(motion):
+        p, t = avatar.sample_animation("fixture", f / 30.0)
+        q, _ = avatar.sample_animation(0, f / 30.0)
+        # 16-bit rotations: a small angle's axis-angle is off by about the angle error, < 1e-4 rad
+        check(np.abs(p - pose).max() < 1e-4 and np.abs(t - transl).max() < 1e-5 and np.array_equal(p, q),
+              "animation frame %d equals the motion (pose %.2g, transl %.2g)" % (f, np.abs(p - pose).max(), np.abs(t - transl).max()))
+    expect_error(haha, haha.ArgumentError, ["no animation", "fixture"], lambda: avatar.sample_animation("run", 0))
+
+
 def expect_error(haha, cls, words, fn):
     try:
         fn()
@@ -209,6 +226,7 @@ def main():
     test_equals_c_api(haha, args, glb)
     test_equals_c_sample(haha, args, glb, motion)
     test_errors(haha, args, glb)
+    test_animation(haha, args, motion)
     print("PASS" if not failures else "FAILED: %d check(s)" % len(failures))
     return 1 if failures else 0
 

@@ -1,6 +1,7 @@
 // Writes the Python package test's inputs into OUTDIR: avatar.glb (a realistic-size avatar on
 // the full procedural SMPL-X-layout body, packed with the defaults: Draco mesh, JPEG texture,
-// embedded pose correctives) and motion.npz (3 frames, the AMASS layout `haha motion` writes).
+// embedded pose correctives), motion.npz (3 frames, the AMASS layout `haha motion` writes)
+// and animated.glb (a small avatar carrying that motion as the glTF animation "fixture").
 //   python_avatar_fixture OUTDIR
 #include <cstdio>
 #include <exception>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "format/avatar_pack.h"
+#include "io/motion.h"
 #include "io/npy.h"
 #include "support/format_realistic_avatar.h"
 
@@ -34,6 +36,9 @@ int main(int argc, char** argv) {
     z.set("trans", haha::NpyArray::from(trans, {T, 3}));
     z.set("mocap_frame_rate", haha::NpyArray::from(std::vector<double>{30.0}, {}));
     z.write((out / "motion.npz").string());
+    haha::PackOptions animated;
+    animated.animations.push_back({"fixture", haha::read_motion((out / "motion.npz").string())});
+    haha::write_avatar_glb(haha::test::make_realistic_avatar(500, 32), (out / "animated.glb").string(), animated);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "python_avatar_fixture: %s\n", e.what());
     return 1;

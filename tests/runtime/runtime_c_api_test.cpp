@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "format/animation.h"
 #include "format/avatar_loader.h"
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
@@ -179,6 +180,7 @@ TEST(RuntimeCApi, ExportsOnlyTheCApi) {
                         "haha_posed_create", "haha_posed_free", "haha_repose", "haha_posed_vertices",
                         "haha_posed_normals", "haha_posed_joints", "haha_posed_gaussians", "haha_render",
                         "haha_motion_load", "haha_motion_load_for_avatar", "haha_motion_free", "haha_motion_info", "haha_motion_frame",
+                        "haha_avatar_animation_count", "haha_avatar_animation_info", "haha_avatar_sample_animation",
                         "haha_write_png"})
     EXPECT_TRUE(names.count(f)) << f << " is not exported";
 
@@ -753,6 +755,53 @@ TEST(RuntimeCApi, MotionsForAnAvatarAreTurnedUpright) {
   haha_motion_free(m);
   haha_motion* out = nullptr;
   expect_failure(haha_motion_load_for_avatar(path.c_str(), nullptr, &out), HAHA_ERROR_ARGUMENT, {"avatar is NULL"});
+}
+
+TEST(RuntimeCApi, AnimationsListAndSampleLikeTheCppReader) {
+  Motion m;
+  m.fps = 24;
+  m.up = {0, 1, 0};
+  for (int k = 0; k < 12; ++k) {
+    SmplxParams p;
+    p.pose[1] = 0.3f * float(k);
+    p.pose[3 * 16 + 2] = -0.1f * float(k);
+    p.transl = {0.02f * float(k), 0.0f, 0.01f};
+    m.frames.push_back(p);
+  }
+  PackOptions o;
+  o.animations = {{"turn", m}};
+  const std::vector<uint8_t> bytes = pack_avatar(fx().avatar, o);
+  const fs::path path = tmp_dir() / "animated.glb";
+  write_bytes(path, bytes);
+  AvatarHandle a, plain;
+  a.p = load_ok(path);
+  plain.p = load_ok(fx().lossy_path);
+  int32_t count = -1, frames = 0;
+  ASSERT_EQ(haha_avatar_animation_count(plain.p, &count), HAHA_OK);
+  EXPECT_EQ(count, 0);
+  ASSERT_EQ(haha_avatar_animation_count(a.p, &count), HAHA_OK);
+  ASSERT_EQ(count, 1);
+  char name[16];
+  double duration = 0, fps = 0;
+  ASSERT_EQ(haha_avatar_animation_info(a.p, 0, name, sizeof name, &duration, &frames, &fps), HAHA_OK) << haha_last_error();
+  EXPECT_STREQ(name, "turn");
+  EXPECT_EQ(frames, 12);
+  EXPECT_NEAR(duration, 11 / 24.0, 1e-6);
+  EXPECT_NEAR(fps, 24.0, 1e-4);
+  const UnpackedAvatar u = unpack_avatar(bytes.data(), bytes.size(), "mem.glb");
+  float pose[165], transl[3];
+  for (double t : {-1.0, 0.0, 0.1, 0.25, 11 / 24.0, 5.0}) {
+    ASSERT_EQ(haha_avatar_sample_animation(a.p, 0, t, pose, transl), HAHA_OK) << haha_last_error();
+    const SmplxParams want = sample_animation(u.animations[0], t);
+    for (int i = 0; i < 165; ++i) ASSERT_EQ(pose[i], want.pose[size_t(i)]) << t << " " << i;
+    for (int i = 0; i < 3; ++i) ASSERT_EQ(transl[i], want.transl[size_t(i)]) << t << " " << i;
+  }
+  EXPECT_NEAR(transl[0], 0.22f, 1e-6);  // held at the last key after the end
+  expect_failure(haha_avatar_animation_info(a.p, 0, name, 4, nullptr, nullptr, nullptr), HAHA_ERROR_ARGUMENT, {"name", "capacity 4"});
+  expect_failure(haha_avatar_sample_animation(a.p, 1, 0.0, pose, transl), HAHA_ERROR_ARGUMENT, {"animation 1", "0..0"});
+  expect_failure(haha_avatar_sample_animation(plain.p, 0, 0.0, pose, transl), HAHA_ERROR_ARGUMENT, {"animation 0"});
+  expect_failure(haha_avatar_sample_animation(a.p, 0, NAN, pose, transl), HAHA_ERROR_ARGUMENT, {"not finite"});
+  expect_failure(haha_avatar_animation_count(nullptr, &count), HAHA_ERROR_ARGUMENT, {"avatar is NULL"});
 }
 
 TEST(RuntimeCApi, WritesPng) {

@@ -45,7 +45,9 @@
  *   - haha_avatar and haha_motion are immutable after loading: any number of threads may
  *     use one at the same time, in every call that takes it as const: haha_avatar_get_info,
  *     haha_avatar_faces, haha_avatar_face_uvs, haha_avatar_texture, haha_posed_create,
- *     haha_motion_load_for_avatar, haha_motion_info, haha_motion_frame; also while pose
+ *     haha_motion_load_for_avatar, haha_motion_info, haha_motion_frame,
+ *     haha_avatar_animation_count, haha_avatar_animation_info,
+ *     haha_avatar_sample_animation; also while pose
  *     states made from the avatar repose and render in other threads.
  *   - haha_posed is one pose state with its render scratch: one thread at a time
  *     (haha_repose, haha_posed_*, haha_render on the same haha_posed must not overlap).
@@ -266,6 +268,23 @@ typedef enum haha_pixel_format {
  * calls on the same posed. */
 HAHA_API haha_status haha_render(haha_posed* posed, const haha_camera* camera, const float* background, uint32_t flags,
                                  haha_pixel_format format, void* pixels, size_t capacity_bytes);
+
+/* ---- Animations stored in the avatar's file (haha pack --animation) ------------------- */
+
+/* Number of glTF animations of the avatar's skeleton in its file (0 when it has none). */
+HAHA_API haha_status haha_avatar_animation_count(const haha_avatar* avatar, int32_t* count);
+/* Animation `index` in [0, count): its name, NUL-terminated into name[name_capacity] (name
+ * NULL to skip; a capacity below the name's length + 1 is HAHA_ERROR_ARGUMENT), its
+ * duration in seconds, its frames (keys of its longest track) and the frame rate they were
+ * written at. Any output pointer may be NULL. */
+HAHA_API haha_status haha_avatar_animation_info(const haha_avatar* avatar, int32_t index, char* name, size_t name_capacity,
+                                                double* duration, int32_t* frames, double* fps);
+/* Animation `index` at `time` seconds (clamped to [0, duration]) as SMPL-X pose parameters:
+ * pose[165] axis-angle and translation[3] (either may be NULL), ready for haha_repose.
+ * Keys are interpolated as glTF viewers play them (slerp / lerp, STEP held); joints the
+ * animation does not move stay at rest (zero). */
+HAHA_API haha_status haha_avatar_sample_animation(const haha_avatar* avatar, int32_t index, double time, float* pose,
+                                                  float* translation);
 
 /* ---- Motions and images (helpers for tools and samples) ----------------------------- */
 

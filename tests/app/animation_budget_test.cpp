@@ -1,0 +1,71 @@
+// What a 10 s, 30 fps animation adds to a .glb with the default quantization (16-bit
+// rotations): haha's own motions (`haha motion --kind ...`) stay within 60 KB, and the
+// added bytes follow from what is stored (the moving tracks' keys and the JSON that
+// describes them), so a motion moving every body joint is measured and printed too.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "format/avatar_pack.h"
+#include "support/format_test_avatar.h"
+#include "synth/demo_motion.h"
+
+namespace haha {
+namespace {
+
+constexpr int kFrames = 300;  // 10 s
+constexpr double kFps = 30;
+
+size_t added_bytes(const Motion& m, int bits = kDefaultAnimationRotationBits) {
+  const Avatar a = test::make_test_avatar(40, 2, 8, 8);
+  PackOptions with;
+  with.animations.push_back({"clip", m});
+  with.animation_bits = bits;
+  return pack_avatar(a, with).size() - pack_avatar(a, PackOptions{}).size();
+}
+
+Motion demo(const std::string& kind) {
+  Motion m;
+  m.fps = kFps;
+  m.source = kind;
+  for (int k = 0; k < kFrames; ++k) {
+    SmplxParams p;
+    // Two loops of the procedural motion over the clip, as `haha motion --frames 150` twice.
+    const std::vector<float> pose = demo_motion_pose(kind, std::fmod(2.0 * k / kFrames, 1.0));
+    std::copy(pose.begin(), pose.end(), p.pose.begin());
+    m.frames.push_back(p);
+  }
+  return m;
+}
+
+TEST(AnimationBudget, HahasOwnMotionsAddAtMostSixtyKilobytes) {
+  for (const char* kind : {"walk", "wave", "turn"}) {
+    const size_t b = added_bytes(demo(kind));
+    std::printf("%s, 10 s at 30 fps: %zu B added\n", kind, b);
+    EXPECT_LE(b, 60000u) << kind;
+  }
+}
+
+TEST(AnimationBudget, EveryBodyJointMovingCostsItsKeys) {
+  Motion m;
+  m.fps = kFps;
+  for (int k = 0; k < kFrames; ++k) {
+    SmplxParams p;
+    for (int j = 0; j <= 21; ++j)
+      for (int c = 0; c < 3; ++c) p.pose[size_t(3 * j + c)] = float(0.5 * std::sin(0.3 * (j + 1) * k / kFps + c));
+    p.transl = {float(0.01 * k), 0.0f, 0.0f};
+    m.frames.push_back(p);
+  }
+  const size_t b16 = added_bytes(m), b8 = added_bytes(m, 8);
+  std::printf("all 22 body joints + root translation, 10 s at 30 fps: %zu B added (16-bit), %zu B (8-bit)\n", b16, b8);
+  // Binary: 22 rotation tracks x 300 keys x 4 components, 300 translations, 300 key times
+  // and the one-key time (the still joints rest: no track); what is left is the JSON.
+  const size_t keys16 = 22 * kFrames * 8 + kFrames * 12 + kFrames * 4 + 4;
+  EXPECT_GE(b16, keys16);
+  EXPECT_LE(b16 - keys16, 12000u) << "JSON per track grew";
+  EXPECT_LT(b8, b16);
+}
+
+}  // namespace
+}  // namespace haha
