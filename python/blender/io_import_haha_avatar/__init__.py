@@ -4,10 +4,11 @@ Imports a haha avatar (any pack: Draco files too, decoded by libhaha_runtime.so 
 Python package `haha`, not by Blender's glTF importer) as
   - an armature of the file's 55 SMPL-X joints (heads at the rest joints, no roll),
   - the textured body (unlit material: the texture as `haha render` shows it),
-  - the Gaussians: a point per Gaussian drawn as oriented, coloured, semi-transparent
-    ellipsoids (geometry-nodes instances, EEVEE and Cycles).
-Posing the armature or playing an action reposes body and Gaussians exactly as the runtime
-does (pose correctives, every Gaussian on its posed triangle's frame): pose_sync.py.
+  - the textured body, skinned by an Armature modifier with the file's joint weights,
+  - the Gaussians: a point per Gaussian bound to its body face, posed by geometry nodes on
+    the deformed body's face frames and drawn as camera-facing splats (EEVEE and Cycles).
+Posing, actions, drivers and export work as for any rigged character; no Python runs after
+the import. The body has no pose correctives (plain linear blend skinning).
 Operator: bpy.ops.import_scene.haha_avatar(filepath=...).
 """
 bl_info = {
@@ -22,14 +23,16 @@ bl_info = {
 
 if "bpy" in locals():
     import importlib
-    for _m in (camera, glb_skeleton, importer, pose_sync, runtime_link, scene_build, shading):  # noqa: F821
+    for _m in (node_util, camera, glb_skeleton, plain_skin, face_binding, gaussian_nodes, shading, scene_build,
+               posing, importer, runtime_link):  # noqa: F821
         importlib.reload(_m)
 
 import bpy
 from bpy.props import StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from . import camera, glb_skeleton, importer, pose_sync, runtime_link, scene_build, shading  # noqa: F401
+from . import (camera, face_binding, gaussian_nodes, glb_skeleton, importer, node_util, plain_skin,  # noqa: F401
+               posing, runtime_link, scene_build, shading)
 
 
 class IMPORT_SCENE_OT_haha_avatar(bpy.types.Operator, ImportHelper):
@@ -57,10 +60,8 @@ def _menu(self, _context):
 def register():
     bpy.utils.register_class(IMPORT_SCENE_OT_haha_avatar)
     bpy.types.TOPBAR_MT_file_import.append(_menu)
-    pose_sync.register()
 
 
 def unregister():
-    pose_sync.unregister()
     bpy.types.TOPBAR_MT_file_import.remove(_menu)
     bpy.utils.unregister_class(IMPORT_SCENE_OT_haha_avatar)

@@ -1,21 +1,43 @@
-"""File > Import > HAHA avatar (.glb): the body, its armature and the Gaussian layer, all
-decoded by libhaha_runtime.so through the `haha` package (Draco files included)."""
+"""File > Import > HAHA avatar (.glb): the armature, the body skinned by it and the Gaussian
+layer bound to the body, all decoded by libhaha_runtime.so through the `haha` package
+(Draco files included). Nothing runs in Python after the import: the Armature modifier and
+the geometry nodes do the posing."""
 import os
 
 import bpy
+import numpy as np
 
-from . import glb_skeleton, pose_sync, runtime_link, scene_build
+from . import face_binding, glb_skeleton, plain_skin, runtime_link, scene_build
+
+
+def _settings(path):
+    ext = glb_skeleton.read_gltf_json(path)["extensions"]["HAHA_gaussian_avatar"]
+    return {"scale_divisor": ext["faceFrame"]["scaleDivisor"],
+            "depth_margin": ext.get("depthTest", {}).get("margin", 0.0)}
+
+
+def set_color_management(scene):
+    """Raw view transform (display values in and out, so splats blend like haha render's)
+    and enough transparent bounces for stacked splats in Cycles."""
+    scene.view_settings.view_transform = "Raw"
+    scene.view_settings.look = "None"
+    if hasattr(scene, "cycles"):
+        scene.cycles.transparent_max_bounces = max(scene.cycles.transparent_max_bounces, 256)
+    scene.eevee.use_taa_reprojection = False
 
 
 def import_avatar(context, path):
     """Imports `path`; returns the armature object. Raises with one line naming the file."""
     haha = runtime_link.import_haha()
     path = os.path.abspath(bpy.path.abspath(path))
-    avatar = haha.Avatar(path)  # haha.FileError / haha.FormatError: "<file>: <problem>"
+    haha.Avatar(path)  # haha.FileError / haha.FormatError: "<file>: <problem>"
     skeleton = glb_skeleton.read_skeleton(path)
-    if len(skeleton) != avatar.num_joints:
-        raise ValueError("%s: the skin has %d joints, the avatar %d" % (path, len(skeleton), avatar.num_joints))
-    rest = avatar.repose()
+    plain = haha.Avatar.from_bytes(plain_skin.without_pose_correctives(path), name=path)
+    if len(skeleton) != plain.num_joints:
+        raise ValueError("%s: the skin has %d joints, the avatar %d" % (path, len(skeleton), plain.num_joints))
+    rest = plain.repose()
+    weights = plain_skin.skin_weights(plain, [p for _, p in skeleton], rest.vertices, rest.joints)
+    settings = _settings(path)
     name = os.path.splitext(os.path.basename(path))[0]
     collection = context.collection or context.scene.collection
     if bpy.context.object is not None and bpy.context.object.mode != "OBJECT":
@@ -23,11 +45,17 @@ def import_avatar(context, path):
     arm = scene_build.build_armature(name, skeleton, rest.joints, collection)
     arm.data["haha_avatar_path"] = path
     arm.data["haha_joint_names"] = [n for n, _ in skeleton]
-    body = scene_build.build_body(name + "_body", avatar, rest.vertices, arm, collection)
-    gaussians = scene_build.build_gaussians(name + "_gaussians", avatar.num_gaussians, arm, collection)
+    body = scene_build.build_body(name + "_body", plain, rest.vertices, weights, arm, collection)
     arm.data["haha_body"] = body
-    arm.data["haha_gaussians"] = gaussians
-    pose_sync.sync(arm, force=True)
+    if plain.num_gaussians:
+        binding = face_binding.bind(plain, plain.faces, settings["scale_divisor"])
+        gaussians = scene_build.build_gaussians(name + "_gaussians", binding, plain.faces, body, settings, collection)
+        arm.data["haha_gaussians"] = gaussians
+        arm.data["haha_binding_error"] = float(np.max(binding["error"]))
+        if context.scene.camera is not None:
+            from .camera import use_camera
+            use_camera(gaussians, context.scene.camera, context.scene)
+    set_color_management(context.scene)
     for o in context.view_layer.objects:
         o.select_set(False)
     arm.select_set(True)

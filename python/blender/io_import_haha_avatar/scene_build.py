@@ -2,7 +2,8 @@
 
 All three live in the avatar's own frame (SMPL-X: metres, Y up, facing +Z): the armature
 object turns it Z up (+90 degrees about X) and the body and Gaussians are its children,
-so their data stays in the runtime's coordinates.
+so their data stays in the runtime's coordinates. The body is skinned by an Armature
+modifier (a vertex group per bone); the Gaussians follow it through geometry nodes.
 """
 import math
 
@@ -10,9 +11,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import shading
-
-SPHERE_SIGMAS = 3.0  # each Gaussian is drawn as the ellipsoid of 3 standard deviations
+from . import gaussian_nodes, shading
 
 
 def _bone_tail(j, heads, children):
@@ -64,8 +63,9 @@ def _texture_image(name, texture):
     return img
 
 
-def build_body(name, avatar, vertices, parent, collection):
-    """The body mesh (file vertex order, per-corner UVs) with an unlit textured material."""
+def build_body(name, avatar, vertices, weights, arm, collection):
+    """The body mesh (file vertex order, per-corner UVs, unlit textured material), a vertex
+    group per bone holding `weights` (V, J) and an Armature modifier on `arm`."""
     faces = avatar.faces
     me = bpy.data.meshes.new(name)
     me.vertices.add(len(vertices))
@@ -84,24 +84,58 @@ def build_body(name, avatar, vertices, parent, collection):
     image = _texture_image(name + "_texture", tex) if tex is not None else None
     me.materials.append(shading.body_material(name + "_material", image))
     obj = bpy.data.objects.new(name, me)
-    obj.parent = parent
+    obj.parent = arm
     collection.objects.link(obj)
+    for j, bone_name in enumerate(arm.data["haha_joint_names"]):
+        rows = np.flatnonzero(weights[:, j])
+        if len(rows) == 0:
+            continue
+        group = obj.vertex_groups.new(name=bone_name)
+        for v in rows:
+            group.add([int(v)], float(weights[v, j]), "REPLACE")
+    mod = obj.modifiers.new("Armature", "ARMATURE")
+    mod.object = arm
+    mod.use_vertex_groups = True
     return obj
 
 
-def build_gaussians(name, num_gaussians, parent, collection):
-    """A point mesh (one vertex per Gaussian, attributes written by pose_sync) drawn as
-    instanced ellipsoids by a geometry-nodes modifier."""
+def build_gaussians(name, binding, faces, body, settings, collection):
+    """A point per Gaussian carrying its face binding (face_binding.bind) as attributes, the
+    geometry-nodes group that poses it from `body` and draws it as a splat. `settings`:
+    scale_divisor, depth_margin."""
+    G = len(binding["face"])
     me = bpy.data.meshes.new(name)
-    me.vertices.add(num_gaussians)
-    for attr, kind in (("haha_rotation", "FLOAT_VECTOR"), ("haha_scale", "FLOAT_VECTOR"),
-                       ("haha_color", "FLOAT_COLOR"), ("haha_opacity", "FLOAT"), ("haha_inv0", "FLOAT_VECTOR"),
-                       ("haha_inv1", "FLOAT_VECTOR"), ("haha_inv2", "FLOAT_VECTOR")):
-        me.attributes.new(attr, kind, "POINT")
+    me.vertices.add(G)
+    corners = faces[binding["face"]]
+    for i in range(3):
+        me.attributes.new("haha_v%d" % i, "INT", "POINT").data.foreach_set("value", corners[:, i].astype(np.int32))
+    local = quat_to_matrix(binding["rotation"])
+    for attr, values in (("haha_offset", binding["offset"]), ("haha_scale", binding["scale"]),
+                         ("haha_axis0", local[:, :, 0]), ("haha_axis1", local[:, :, 1]), ("haha_axis2", local[:, :, 2])):
+        me.attributes.new(attr, "FLOAT_VECTOR", "POINT").data.foreach_set("vector", np.ascontiguousarray(values).reshape(-1))
+    rgba = np.ones((G, 4))
+    rgba[:, :3] = binding["color"]  # display values: shown unchanged under the view transform Raw
+    me.attributes.new("haha_color", "FLOAT_COLOR", "POINT").data.foreach_set("color", rgba.reshape(-1))
+    me.attributes.new("haha_opacity", "FLOAT", "POINT").data.foreach_set("value", binding["opacity"])
     obj = bpy.data.objects.new(name, me)
-    obj.parent = parent
-    collection.objects.link(obj)
+    collection.objects.link(obj)  # at the world origin, unparented: its space is world space
+    obj.lock_location = obj.lock_rotation = obj.lock_scale = (True, True, True)
     mod = obj.modifiers.new("HAHA Gaussians", "NODES")
-    mod.node_group = shading.gaussian_node_group(SPHERE_SIGMAS)
+    mod.node_group = gaussian_nodes.gaussian_node_group(shading.splat_material(name + "_splat"))
+    set_input(mod, "Body", body)
+    set_input(mod, "Scale Divisor", float(settings["scale_divisor"]))
+    set_input(mod, "Depth Margin", float(settings["depth_margin"]))
     return obj
 
+
+def set_input(mod, name, value):
+    """Sets a geometry-nodes modifier's input by its socket name."""
+    mod[mod.node_group.inputs[name].identifier] = value
+
+
+def quat_to_matrix(q):
+    """(G, 4) (w, x, y, z) -> (G, 3, 3) rotation matrices."""
+    w, x, y, z = (q[:, i].astype(np.float64) for i in range(4))
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], 1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], 1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], 1)], 1)
