@@ -29,6 +29,7 @@ Motion thinned_motion(const SynthRunOptions& a, const BodyModel& body) {
   if (a.rate > 0) m = resample_motion(m, a.rate);
   Motion out = m;
   out.frames.clear();
+  out.fps = m.fps / a.every;  // the kept frames' rate, as haha render's video gets
   for (size_t t = 0; t < m.frames.size(); t += size_t(a.every)) {
     if (a.max_frames > 0 && int(out.frames.size()) >= a.max_frames) break;
     out.frames.push_back(m.frames[t]);

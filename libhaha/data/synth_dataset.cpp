@@ -52,6 +52,7 @@ std::string checked_out_dir(const std::string& dir_in) {
 struct SceneWrite {
   std::string source;  // dataset.json's "source" (the body is appended)
   std::string title;   // of the contact sheet
+  double fps = 30;     // dataset.json's "fps"
   bool save_body = false;
   bool part_masks = false;
 };
@@ -82,7 +83,7 @@ SynthSummary write_scene(const std::string& dir, const BodyModel& body, const Sy
   }
   DirGuard guard(stage.string()), parts_guard(parts.string());
   if (w.part_masks) fs::create_directories(parts);
-  DatasetWriter writer(stage.string(), opt.size, opt.size, 30.0, "neutral",
+  DatasetWriter writer(stage.string(), opt.size, opt.size, w.fps, "neutral",
                        w.source + "; body: " + (body.source.empty() ? std::string("?") : body.source));
   writer.set_premultiplied(1);  // rendered on black, box-filtered coverage as the mask
   // Noisy fits stand in for estimated ones: `haha train` then picks the settings for them.
@@ -185,6 +186,7 @@ SynthSummary write_synth_motion_dataset(const std::string& dir_in, const BodyMod
              std::to_string(motion.frames.size()) + " frames, all test)";
   w.title = std::string(opt.subject == 1 ? "HAHA SYNTH" : "HAHA SYNTH SUBJECT 2") + ": " +
             std::to_string(opt.size) + " PX, " + std::to_string(motion.frames.size()) + " MOTION FRAMES";
+  w.fps = motion.fps;
   w.save_body = save_body;
   w.part_masks = part_masks;
   return write_scene(dir, body, scene, w, logger(log));

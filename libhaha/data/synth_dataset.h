@@ -38,7 +38,7 @@ SynthSummary write_synth_dataset(const std::string& dir, const BodyModel& body, 
 
 // `haha synth --motion`: the same subject (opt's subject, seed, size, supersample, texture,
 // view shading; the frame counts and fit noise are not used) in the poses of `motion`,
-// every frame a test frame with exact fits (synth_subject.h: make_synth_subject_scene,
+// every frame a test frame with exact fits, dataset.json's fps the motion's (synth_subject.h: make_synth_subject_scene,
 // set_synth_scene_motion). A Z-up motion (AMASS) is first turned upright about the
 // subject's rest pelvis (io/motion.h motion_to_y_up). Written as write_synth_dataset writes.
 SynthSummary write_synth_motion_dataset(const std::string& dir, const BodyModel& body, const SynthOptions& opt,

@@ -72,6 +72,7 @@ TEST_F(SynthMotionRun, FramesAreTheMotionsPosesWithPartMasks) {
   EXPECT_TRUE(ds.indices(Split::train).empty());
   EXPECT_EQ(ds.indices(Split::test).size(), 3u);
   EXPECT_EQ(ds.fits, Fits::exact);
+  EXPECT_DOUBLE_EQ(ds.fps, 24.0);  // the motion's rate (haha motion's default)
   const Motion m = read_motion(motion);
   for (size_t i = 0; i < 3; ++i) {
     EXPECT_EQ(ds.frames[i].params.pose, m.frames[i].pose) << "frame " << i;
@@ -105,6 +106,7 @@ TEST_F(SynthMotionRun, ThinnedAsRenderThinsAndDeterministic) {
   run_synth(o);
   const Dataset ds = read_dataset(path("a"));
   ASSERT_EQ(ds.frames.size(), 2u);
+  EXPECT_DOUBLE_EQ(ds.fps, 12.0);  // every other frame of 24 fps
   const Motion m = read_motion(motion);
   EXPECT_EQ(ds.frames[1].params.pose, m.frames[2].pose);
   EXPECT_FALSE(fs::exists(path("a") + "/" + kSynthPartMaskDir));  // only with --part-masks
