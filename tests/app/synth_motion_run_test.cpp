@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -17,6 +18,7 @@
 #include "data/synth_dataset.h"
 #include "io/image.h"
 #include "io/motion.h"
+#include "io/npy.h"
 #include "support/expect_error.h"
 
 namespace haha {
@@ -112,6 +114,29 @@ TEST_F(SynthMotionRun, ThinnedAsRenderThinsAndDeterministic) {
   EXPECT_FALSE(fs::exists(path("a") + "/" + kSynthPartMaskDir));  // only with --part-masks
   for (const char* f : {"images/000000.png", "images/000001.png", "masks/000001.png", "smplx/params.npz"})
     EXPECT_EQ(bytes(path("a") + "/" + f), bytes(path("b") + "/" + f)) << f;
+}
+
+TEST_F(SynthMotionRun, AnAmassFileIsTurnedUpright) {
+  // SMPL+H layout, Z-up: a standing person (the rest pose's +Y turned to +Z, 90 degrees
+  // about X) walking 1 m along +X between the two frames.
+  std::vector<double> poses(2 * 156, 0.0);
+  poses[0] = poses[156] = M_PI / 2;
+  Npz z;
+  z.set("poses", NpyArray::from(poses, {2, 156}));
+  z.set("trans", NpyArray::from(std::vector<double>{0, 0, 0.9, 1, 0, 0.9}, {2, 3}));
+  z.set("mocap_framerate", NpyArray::from(std::vector<double>{60}, {}));
+  z.write(path("amass.npz"));
+  run_synth(options(path("amass.npz"), path("ds")));
+  const Dataset ds = read_dataset(path("ds"));
+  ASSERT_EQ(ds.frames.size(), 2u);
+  EXPECT_DOUBLE_EQ(ds.fps, 60.0);
+  for (const DatasetFrame& f : ds.frames) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(f.params.pose[size_t(c)], 0.0, 1e-5);  // upright in haha's Y-up world
+    EXPECT_EQ(f.params.transl[0], 0.0f);  // the walk's travel is dropped
+    EXPECT_EQ(f.params.transl[2], 0.0f);
+  }
+  // Both frames are the same pose held in place: the same image.
+  EXPECT_EQ(bytes(path("ds") + "/images/000000.png"), bytes(path("ds") + "/images/000001.png"));
 }
 
 TEST_F(SynthMotionRun, ABadMotionFileIsOneLineNamingItAndWritesNothing) {
