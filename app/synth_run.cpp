@@ -19,10 +19,6 @@ namespace {
 std::chrono::steady_clock::time_point synth_start;
 double seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now() - synth_start).count(); }
 
-}  // namespace
-
-namespace {
-
 // The motion file's frames kept as `haha render` keeps them (resampled, then thinned).
 Motion thinned_motion(const SynthRunOptions& a, const BodyModel& body) {
   Motion m = read_motion(a.motion, &body);
@@ -51,7 +47,10 @@ void run_synth(const SynthRunOptions& a) {
   o.fit_noise.transl = a.fit_noise_transl.value_or(a.fit_noise);
   {
     SynthOptions checked = o;  // cheap checks before any work
-    if (!a.motion.empty()) checked.train_frames = 1, checked.test_frames = 0;  // counts come from the motion
+    if (!a.motion.empty()) {  // the frame counts come from the motion
+      checked.train_frames = 1;
+      checked.test_frames = 0;
+    }
     validate_synth_options(checked);
   }
   if (a.resolution != "low" && a.resolution != "full")
