@@ -62,6 +62,7 @@ std::string eval_report_json(const EvalReport& r) {
   j["antialias"] = r.antialias;
   j["lpips"] = r.lpips_available ? ojson("AlexNet (user-supplied weights)") : ojson(kLpipsUnavailable);
   j["switches"] = r.switches;
+  if (!r.part.empty()) j["part"] = r.part;
   j["eval_seconds"] = r.eval_seconds;
   j["stage_train_seconds"] = {r.stage_seconds[0], r.stage_seconds[1], r.stage_seconds[2]};
   ojson rows = ojson::array();
@@ -76,6 +77,7 @@ std::string eval_report_json(const EvalReport& r) {
     row["storage_bytes"] = v.storage_bytes;
     row["psnr"] = num(v.psnr);
     row["psnr_outline"] = num(v.psnr_outline);
+    if (!r.part.empty()) row["psnr_part"] = num(v.psnr_part);
     row["ssim"] = num(v.ssim);
     row["lpips"] = v.lpips >= 0 ? num(v.lpips) : ojson(nullptr);
     row["render_ms"] = num(v.render_ms);
@@ -87,6 +89,7 @@ std::string eval_report_json(const EvalReport& r) {
       o["frame"] = k < r.frame_names.size() ? r.frame_names[k] : std::to_string(k);
       o["psnr"] = num(f.psnr);
       o["psnr_outline"] = num(f.psnr_outline);
+      if (!r.part.empty()) o["psnr_part"] = num(f.psnr_part);
       o["ssim"] = num(f.ssim);
       o["lpips"] = f.lpips >= 0 ? num(f.lpips) : ojson(nullptr);
       o["render_ms"] = num(f.render_ms);
@@ -142,6 +145,12 @@ std::string eval_report_markdown(const EvalReport& r) {
     s += "| " + v.name + " | " + std::to_string(v.num_gaussians) + " | " + f2(v.storage_bytes / 1e6, "%.3f") + " | " +
          f2(v.psnr, "%.2f") + " | " + f2(v.psnr_outline, "%.2f") + " | " + f2(v.ssim, "%.4f") + " | " + (v.lpips >= 0 ? f2(v.lpips, "%.4f") : "n/a") +
          " | " + f2(v.render_ms, "%.1f") + " | " + f2(variant_train_seconds(r.stage_seconds, v.paper_row), "%.0f") + " |\n";
+  }
+  if (!r.part.empty()) {
+    s += "\nPSNR over the " + r.part + "'s pixels (weighted by the dataset's part masks):";
+    for (const VariantEval& v : r.variants) s += " " + v.name + " " + f2(v.psnr_part, "%.2f") + " dB;";
+    s.back() = '.';
+    s += "\n";
   }
   s += "\nStorage: 56 bytes per Gaussian (14 float32) + 4 bytes face index, texture as 8-bit RGB.\n";
   s += "Outline PSNR: within " + std::to_string(kOutlineBandPx) +

@@ -23,6 +23,7 @@ struct EvalReport {
   std::array<double, 3> stage_seconds{0, 0, 0};  // training wall time per stage (0 = unknown)
   std::vector<VariantEval> variants;     // mesh only, full Gaussians, naive merge, HAHA filtered
   std::vector<std::string> frame_names;  // per evaluated frame
+  std::string part;                      // non-empty: VariantEval::psnr_part is over this part's pixels
   std::vector<int> regions_full, regions_filtered;  // Gaussians per BodyRegion
   double eval_seconds = 0;
 };

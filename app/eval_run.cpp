@@ -14,6 +14,9 @@
 #include "app/train_frames.h"
 #include "core/error.h"
 #include "data/dataset.h"
+#include "data/synth_dataset.h"
+#include "io/image.h"
+#include "train/train_frame.h"
 #include "train/evaluate.h"
 
 namespace haha {
@@ -36,6 +39,27 @@ std::vector<size_t> chosen_rows(const std::vector<std::string>& keys) {
   return rows;
 }
 
+// The part mask of every scored frame (`haha synth --part-masks`: DATA/part_masks/, named as
+// the frame's image), resized as the frame was. Throws naming the file when one is missing.
+// One part so far (the garment), so the masks need no part name.
+void load_part_masks(Dataset& ds, Split split, int resolution, std::vector<TrainFrame>& frames) {
+  namespace fs = std::filesystem;
+  const std::vector<int> idx = ds.indices(split);
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const DatasetFrame& f = ds.frames[size_t(idx[k])];
+    const fs::path image(f.image_path);
+    const std::string file = (image.parent_path().parent_path() / kSynthPartMaskDir / image.filename()).string();
+    std::error_code ec;
+    if (!fs::exists(file, ec))
+      fail(file, "no part mask for this frame (write the dataset with haha synth --part-masks)");
+    const Image mask = read_image(file);
+    if (mask.width != f.image.width || mask.height != f.image.height)
+      fail(file, "the part mask's size differs from the frame's");
+    // Resized exactly as the frame's person mask was: the mask channel of a train frame.
+    frames[k].part = make_train_frame(file, f.camera, f.params, f.image, mask, resolution).mask;
+  }
+}
+
 }  // namespace
 
 EvalReport run_eval(const EvalRunOptions& o) {
@@ -44,6 +68,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   if (o.background != "black" && o.background != "white")
     fail("--background", "expected black or white, got '" + o.background + "'");
   const Split split = parse_split(o.split, "--split");
+  if (!o.part.empty() && o.part != "garment") fail("--part", "unknown part '" + o.part + "' (expected garment)");
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!o.out_dir.empty() && fs::exists(o.out_dir, ec) && !fs::is_directory(o.out_dir, ec))
@@ -55,9 +80,11 @@ EvalReport run_eval(const EvalRunOptions& o) {
   const Avatar filtered = load_run_avatar(run);
   const Avatar full = load_stage1_avatar(run, filtered.body);
   Dataset ds = read_dataset(data, LoadPixels::headers);
-  std::vector<TrainFrame> frames = dataset_frames(ds, split, scoring_resolution(ds, info.config, o.resolution));
+  const int resolution = scoring_resolution(ds, info.config, o.resolution);
+  std::vector<TrainFrame> frames = dataset_frames(ds, split, resolution);
   if (frames.empty()) fail(data, "no " + o.split + " frames");
   if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
+  if (!o.part.empty()) load_part_masks(ds, split, resolution, frames);
 
   EvalOptions opt;
   opt.tto_steps = o.tto_steps >= 0 ? o.tto_steps : info.config.eval_tto_steps;
@@ -86,6 +113,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   r.run_dir = o.run_dir;
   r.data_dir = data;
   r.split = o.split;
+  r.part = o.part;
   r.background = o.background;
   r.preset = info.config.preset;
   r.tto_steps = opt.tto_steps;
@@ -110,9 +138,12 @@ EvalReport run_eval(const EvalRunOptions& o) {
     const EvalVariant& v = rows[i];
     r.variants.push_back(evaluate_variant(v, frames, opt));
     r.variants.back().paper_row = i;
-    if (o.print_table)
-      std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)\n", v.name.c_str(), r.variants.back().psnr,
-                  r.variants.back().ssim, r.variants.back().num_gaussians);
+    if (o.print_table) {
+      const VariantEval& e = r.variants.back();
+      std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians);
+      if (!o.part.empty()) std::printf("  %s PSNR %.2f", o.part.c_str(), e.psnr_part);
+      std::printf("\n");
+    }
   }
   r.regions_full = gaussians_per_region(full.body, full.gaussians);
   r.regions_filtered = gaussians_per_region(filtered.body, filtered.gaussians);

@@ -22,6 +22,7 @@ struct EvalRunOptions {
   int frames = 0;                    // > 0: only the first N frames of the split
   int resolution = 0;                // longer side the frames are scored at; 0: the run's training size
   int sheet_frames = 4;              // frames on the contact sheet
+  std::string part;                  // "garment": also PSNR over the dataset's part masks (haha synth --part-masks); empty: none
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
   std::vector<std::string> variants;  // rows to evaluate (kPaperVariantKeys); empty: all four
   bool print_table = true;           // one line per variant on stdout while it runs

@@ -1,7 +1,8 @@
 // `haha synth`'s driver: the embedded sample. A clothed synthetic subject rendered as a
 // monocular video with masks, a static camera and per-frame SMPL-X fits, in the native
 // dataset format (data/synth_dataset.h, synth/synth_subject.h); optionally also as X-Humans
-// takes for `haha convert --from xhumans`.
+// takes for `haha convert --from xhumans`. With a motion file, the same subject in the
+// motion's poses, every frame a test frame (ground truth for an avatar reposed by it).
 #pragma once
 
 #include <optional>
@@ -19,6 +20,13 @@ struct SynthRunOptions {
   SynthOptions synth;              // fit_noise is set from the three values below
   double fit_noise = 0;            // sigma of both, unless one is given on its own
   std::optional<double> fit_noise_pose, fit_noise_transl;  // not given: fit_noise
+  bool part_masks = false;         // also write DIR/part_masks/ (data/synth_dataset.h)
+  // --motion: the subject in a motion file's poses instead of the turn and the novel poses
+  // (io/motion.h reads it; thinned as `haha render` thins: resampled to `rate` first, then
+  // every `every`-th frame, at most `max_frames`).
+  std::string motion;
+  int every = 1, max_frames = 0;
+  double rate = 0;
 };
 
 // Writes the dataset, printing one line per part and a summary. Throws haha::Error naming

@@ -33,6 +33,9 @@ HAHA_COMMAND(eval) {
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--resolution", r.resolution,
                   "score at this longer image side in px, any size (default: the size the run trained at)");
+  sub->add_option("--part", r.part,
+                  "garment: also report the PSNR over the garment's pixels, weighted by the dataset's part masks "
+                  "(haha synth --part-masks)");
   sub->add_option("--sheet-frames", r.sheet_frames, "frames on the contact sheet")->capture_default_str();
   sub->add_option("--lpips-weights", r.lpips_weights, "LPIPS weight file (AlexNet part used); default: the run's");
   auto* aa = sub->add_flag("--antialias", a->antialias,

@@ -36,8 +36,10 @@ void validate_synth_options(const SynthOptions& o) {
     fail("--view-shading", "must be in [0, 2] (-1: the subject's default)");
 }
 
-SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
-  validate_synth_options(opt);
+namespace {
+
+// The subject of the options (texture size automatic when 0) and its view shading.
+SynthScene scene_subject(const BodyModel& body, const SynthOptions& opt) {
   SynthScene sc;
   sc.options = opt;
   SynthSubjectOptions so;
@@ -47,21 +49,59 @@ SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
   sc.subject = make_synth_subject(body, so);
   sc.texture_size = so.texture_size;
   sc.view_shading = opt.view_shading < 0 ? default_view_shading(opt.subject) : opt.view_shading;
+  return sc;
+}
+
+Camera scene_camera(const BodyModel& body, const SynthScene& sc) {
+  std::vector<const SmplxParams*> all;
+  for (const SmplxParams& p : sc.truth) all.push_back(&p);
+  return synth_camera(SynthRenderer(body, sc.subject), all, sc.options.size, sc.options.camera_distance);
+}
+
+}  // namespace
+
+SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
+  validate_synth_options(opt);
+  SynthScene sc = scene_subject(body, opt);
   const SynthMotion motion = make_synth_motion(body, sc.subject, opt.train_frames, opt.test_frames, opt.seed, opt.still_arms);
   sc.truth = motion.train;
   sc.truth.insert(sc.truth.end(), motion.test.begin(), motion.test.end());
   sc.fits = perturb_fits(sc.truth, opt.fit_noise, opt.seed);
-  std::vector<const SmplxParams*> all;
-  for (const SmplxParams& p : sc.truth) all.push_back(&p);
-  sc.camera = synth_camera(SynthRenderer(body, sc.subject), all, opt.size, opt.camera_distance);
+  sc.camera = scene_camera(body, sc);
   sc.min_pose_gap = motion.test.empty() ? 0 : 1e30;
   for (const SmplxParams& a : motion.test)
     for (const SmplxParams& b : motion.train) sc.min_pose_gap = std::min(sc.min_pose_gap, pose_distance(a, b));
   return sc;
 }
 
+SynthScene make_synth_subject_scene(const BodyModel& body, const SynthOptions& opt_in) {
+  SynthOptions opt = opt_in;
+  opt.train_frames = 1;  // the counts come from the motion; the other options are checked as usual
+  opt.test_frames = 0;
+  validate_synth_options(opt);
+  opt.train_frames = 0;
+  opt.fit_noise = FitNoise{};  // the motion's poses are the truth
+  return scene_subject(body, opt);
+}
+
+void set_synth_scene_motion(const BodyModel& body, SynthScene& sc, const std::vector<SmplxParams>& motion) {
+  if (motion.empty()) fail("motion", "no frames");
+  sc.options.train_frames = 0;
+  sc.options.test_frames = int(motion.size());
+  sc.truth = place_synth_motion(body, sc.subject, motion);
+  sc.fits = sc.truth;
+  sc.camera = scene_camera(body, sc);
+  sc.min_pose_gap = 0;
+}
+
 void render_synth_frames(const BodyModel& body, const SynthScene& scene,
                          const std::function<void(int frame, const Image& rgb, const Image& mask)>& sink) {
+  render_synth_frames(body, scene, false,
+                      [&](int i, const Image& rgb, const Image& mask, const Image*) { sink(i, rgb, mask); });
+}
+
+void render_synth_frames(const BodyModel& body, const SynthScene& scene, bool garment_masks,
+                         const SynthFrameSink& sink) {
   const SynthOptions& opt = scene.options;
   SynthRenderer renderer(body, scene.subject);
   renderer.set_view_shading(scene.view_shading);  // before the per-thread copies are made
@@ -73,18 +113,20 @@ void render_synth_frames(const BodyModel& body, const SynthScene& scene,
   const bool by_frame = threads > 1 && opt.size <= 256;
   const int batch = by_frame ? 2 * threads : 1;
   std::vector<SynthRenderer> pool(by_frame ? size_t(threads) : 0, renderer);
-  std::vector<Image> rgbs(static_cast<size_t>(batch)), masks(static_cast<size_t>(batch));
+  std::vector<Image> rgbs(static_cast<size_t>(batch)), masks(static_cast<size_t>(batch)),
+      garments(static_cast<size_t>(batch));
+  auto garment = [&](int64_t k) { return garment_masks ? &garments[size_t(k)] : nullptr; };
   for (int b0 = 0; b0 < N; b0 += batch) {
     const int n = std::min(batch, N - b0);
     if (by_frame) {
       parallel_for_dynamic(n, [&](int64_t k) {
         pool[size_t(thread_index())].render(scene.camera, scene.truth[b0 + k], opt.supersample, kSynthAll, rgbs[k],
-                                            masks[k]);
+                                            masks[k], garment(k));
       });
     } else {
-      renderer.render(scene.camera, scene.truth[b0], opt.supersample, kSynthAll, rgbs[0], masks[0]);
+      renderer.render(scene.camera, scene.truth[b0], opt.supersample, kSynthAll, rgbs[0], masks[0], garment(0));
     }
-    for (int k = 0; k < n; ++k) sink(b0 + k, rgbs[size_t(k)], masks[size_t(k)]);
+    for (int k = 0; k < n; ++k) sink(b0 + k, rgbs[size_t(k)], masks[size_t(k)], garment(k));
   }
 }
 

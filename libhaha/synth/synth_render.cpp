@@ -84,7 +84,7 @@ void SynthRenderer::pose(const SmplxParams& p, unsigned parts, std::vector<float
 }
 
 void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersample, unsigned parts, Image& rgb,
-                           Image& mask) {
+                           Image& mask, Image* garment) {
   if (supersample < 1 || supersample > 8) fail("synth render", "supersample must be in [1, 8]");
   if (cam.width < 1 || cam.height < 1) fail("synth render", "empty camera");
   const int ss = supersample;
@@ -96,12 +96,12 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
     int vert_off = 0;
     if (parts & kSynthBody) {
       faces_.assign(body_.faces.begin(), body_.faces.end());
-      ranges_.push_back({0, body_.num_faces, 0, 0.0f, body_.vt.data(), body_.ft.data()});
+      ranges_.push_back({0, body_.num_faces, 0, 0.0f, false, body_.vt.data(), body_.ft.data()});
       vert_off = body_.num_verts;
     }
     for (const SynthMesh& m : subject_.meshes) {
       if (!(parts & part_of(m))) continue;
-      ranges_.push_back({int(faces_.size() / 3), m.num_faces(), m.texture, m.gloss, m.vt.data(), m.ft.data()});
+      ranges_.push_back({int(faces_.size() / 3), m.num_faces(), m.texture, m.gloss, m.garment, m.vt.data(), m.ft.data()});
       for (int32_t i : m.faces) faces_.push_back(i + vert_off);
       vert_off += m.num_verts();
     }
@@ -144,11 +144,12 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
   const int W = cam.width, H = cam.height, BW = big.width;
   rgb = Image(W, H, 3);
   mask = Image(W, H, 1);
+  if (garment) *garment = Image(W, H, 1);
   const float inv = 1.0f / float(ss * ss);
   parallel_for(H, [&](int64_t y) {
     for (int x = 0; x < W; ++x) {
       float acc[3] = {0, 0, 0};
-      int covered = 0;
+      int covered = 0, on_garment = 0;
       for (int sy = 0; sy < ss; ++sy)
         for (int sx = 0; sx < ss; ++sx) {
           const size_t q = size_t(y * ss + sy) * BW + size_t(x) * ss + sx;
@@ -157,6 +158,7 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
           size_t r = 0;
           while (r + 1 < ranges_.size() && t >= ranges_[r + 1].first_face) ++r;
           const Range& R = ranges_[r];
+          on_garment += R.garment ? 1 : 0;
           const int lf = t - R.first_face;
           const float* b = &raster_.bary[3 * q];
           float u = 0, v = 0;
@@ -185,6 +187,7 @@ void SynthRenderer::render(const Camera& cam, const SmplxParams& p, int supersam
       const size_t o = size_t(y) * W + x;
       for (int k = 0; k < 3; ++k) rgb.data[3 * o + k] = acc[k] * inv;  // black background
       mask.data[o] = float(covered) * inv;
+      if (garment) garment->data[o] = float(on_garment) * inv;
     }
   });
 }

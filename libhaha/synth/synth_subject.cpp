@@ -835,6 +835,7 @@ SynthMesh make_skirt(const SkirtSpec& spec, const Anatomy& A, const std::vector<
   m.name = spec.name;
   m.part = spec.part;
   m.gloss = spec.gloss;
+  m.garment = true;  // one surface around both legs: what a leg-bound avatar cannot carry
   m.texture = 1;
   m.w_start.push_back(0);
   for (int i = 0; i < R; ++i) {

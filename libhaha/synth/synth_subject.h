@@ -61,6 +61,7 @@ struct SynthMesh {
   std::string name;             // "hair", "ponytail", "skirt", "long_hair", "coat", "coat_tails"
   unsigned part = 0;            // its SynthPart bit (the renderer's selection)
   float gloss = 0;              // response to view-dependent shading (0: none)
+  bool garment = false;         // a garment around both legs (skirt, coat tails): the part mask's pixels
   std::vector<float> rest;      // (V, 3) rest-pose positions (on the shaped rest body)
   std::vector<int32_t> faces;   // (F, 3)
   std::vector<float> vt;        // (T, 2) UVs, v up (body convention)
@@ -152,8 +153,11 @@ class SynthRenderer {
   void pose(const SmplxParams& p, unsigned parts, std::vector<float>& verts);
 
   // Anti-aliased render: the image is rasterized at supersample x the camera's size and
-  // box-filtered. rgb (H, W, 3) on black; mask (H, W, 1) = covered fraction of subsamples.
-  void render(const Camera& cam, const SmplxParams& p, int supersample, unsigned parts, Image& rgb, Image& mask);
+  // box-filtered. rgb (H, W, 3) on black; mask (H, W, 1) = covered fraction of subsamples;
+  // garment (optional, (H, W, 1)) = fraction of subsamples whose visible surface is a mesh
+  // with SynthMesh::garment set (all zero when there is none).
+  void render(const Camera& cam, const SmplxParams& p, int supersample, unsigned parts, Image& rgb, Image& mask,
+              Image* garment = nullptr);
 
   // Strength of the view-dependent shading (synth_internal.h view_shade) on meshes with
   // gloss > 0; 0 (the default) renders the textures alone. Throws for a value outside [0, 2].
@@ -173,6 +177,7 @@ class SynthRenderer {
   struct Range {
     int first_face, num_faces, texture;
     float gloss;
+    bool garment;
     const float* vt;
     const int32_t* ft;
   };
@@ -229,10 +234,37 @@ struct SynthScene {
 // fits and camera.
 SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt);
 
+// The scene of `haha synth --motion`, in two steps so the caller can turn the motion into
+// haha's Y-up world about the subject's rest pelvis (subject.rest_joints[0..2]) in between:
+// make_synth_subject_scene checks the options (but the frame counts) and builds the subject
+// of make_synth_scene (same options, seed and body), without frames; set_synth_scene_motion
+// then poses it in `motion` (Y-up; place_synth_motion), every frame a test frame
+// (options.train_frames = 0, test_frames = the motion's length), exact fits, the camera of
+// synth_camera over the placed frames. Throws haha::Error "motion: no frames" for an empty
+// motion.
+SynthScene make_synth_subject_scene(const BodyModel& body, const SynthOptions& opt);
+void set_synth_scene_motion(const BodyModel& body, SynthScene& scene, const std::vector<SmplxParams>& motion);
+
+// Puts a motion (Y-up, haha's world) on the synthetic subject so a static camera in front of
+// it keeps the person framed: each frame keeps its global orientation and every joint
+// rotation; its betas become the subject's (the garments are built on that shape), its
+// expression is cut or padded with zeros to the subject's; its horizontal translation
+// (x, z) is dropped, so the pelvis stays above the rest pelvis (a walk walks on a
+// treadmill); its vertical translation keeps the motion's rises and falls, shifted by one
+// amount for the whole motion so that the lowest body vertex over all frames touches the
+// rest floor (the lowest vertex of the subject's rest body), as the synth frames stand.
+std::vector<SmplxParams> place_synth_motion(const BodyModel& body, const SynthSubject& subject,
+                                            std::vector<SmplxParams> frames);
+
 // Renders every frame of the scene, supersampled (SynthRenderer::render, all parts), and
-// hands them to sink(frame, rgb (H, W, 3) on black, mask (H, W, 1) coverage) in frame
-// order, on the calling thread. Small frames are rendered several at a time, large ones
-// one at a time (memory: one supersampled raster). `body` is the scene's.
+// hands them to sink(frame, rgb (H, W, 3) on black, mask (H, W, 1) coverage, garment) in
+// frame order, on the calling thread; garment is SynthRenderer::render's garment fraction
+// when `garment_masks` is set, else null. Small frames are rendered several at a time,
+// large ones one at a time (memory: one supersampled raster). `body` is the scene's.
+using SynthFrameSink = std::function<void(int frame, const Image& rgb, const Image& mask, const Image* garment)>;
+void render_synth_frames(const BodyModel& body, const SynthScene& scene, bool garment_masks,
+                         const SynthFrameSink& sink);
+// The same without garment masks.
 void render_synth_frames(const BodyModel& body, const SynthScene& scene,
                          const std::function<void(int frame, const Image& rgb, const Image& mask)>& sink);
 

@@ -178,6 +178,8 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
     const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);
     fe.psnr_outline = psnr(buf.image.data(), gt.data(), H, W, band.data());  // NaN without an outline
+    if (f.part.size() == size_t(P)) fe.psnr_part = psnr(buf.image.data(), gt.data(), H, W, f.part.data());
+    else if (!f.part.empty()) fail(f.name, "part weights do not match the camera");
     if (opt.lpips) fe.lpips = opt.lpips->distance(buf.image.data(), gt.data(), H, W);
     if (int(fi) < opt.keep_images) {
       fe.image = buf.image;
@@ -193,10 +195,11 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   const double n = double(out.frames.size());
   out.psnr = out.ssim = out.render_ms = 0;
-  double lp = 0, outline = 0;
-  int with_outline = 0;
+  double lp = 0, outline = 0, part = 0;
+  int with_outline = 0, with_part = 0;
   for (const FrameEval& fe : out.frames) {
     if (!std::isnan(fe.psnr_outline)) outline += fe.psnr_outline, ++with_outline;  // NaN: no outline
+    if (!std::isnan(fe.psnr_part)) part += fe.psnr_part, ++with_part;
     out.psnr += fe.psnr / n;
     out.ssim += fe.ssim / n;
     out.render_ms += fe.render_ms / n;
@@ -204,6 +207,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   out.lpips = opt.lpips ? lp : -1;
   out.psnr_outline = with_outline > 0 ? outline / with_outline : std::nan("");
+  out.psnr_part = with_part > 0 ? part / with_part : std::nan("");
   return out;
 }
 

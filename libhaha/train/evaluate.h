@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -59,6 +60,7 @@ constexpr int kOutlineBandPx = 3;
 struct FrameEval {
   double psnr = 0, ssim = 0, lpips = -1;  // lpips < 0: unavailable
   double psnr_outline = 0;                // PSNR within kOutlineBandPx of the person's outline
+  double psnr_part = std::nan("");        // PSNR weighted by TrainFrame::part (NaN: none, or empty)
   double render_ms = 0;                   // LBS + render of the final pose
   double tto_loss_start = 0, tto_loss_end = 0;
   // Kept for the first keep_images frames: (H, W, 3) images.
@@ -73,6 +75,7 @@ struct VariantEval {
   int64_t storage_bytes = 0;
   double psnr = 0, ssim = 0, lpips = -1, render_ms = 0;  // means over frames
   double psnr_outline = 0;  // mean over the frames that have an outline (NaN: none has)
+  double psnr_part = 0;     // mean over the frames whose part has pixels (NaN: none has)
   std::vector<FrameEval> frames;
 };
 

@@ -50,6 +50,9 @@ struct TrainFrame {
   SmplxParams params;  // initial fit
   std::vector<float> rgb;   // (H, W, 3) in [0, 1]
   std::vector<float> mask;  // (H, W) in [0, 1], 1 = person
+  // Optional (H, W) in [0, 1]: a part of the person scored on its own by evaluation
+  // (FrameEval::psnr_part, e.g. a garment's pixels); empty: none. Training ignores it.
+  std::vector<float> part;
 };
 
 struct TrainInput {

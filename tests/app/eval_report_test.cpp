@@ -1,6 +1,8 @@
 // The evaluation report: requirement checks, JSON / Markdown content, contact sheet.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "app/eval_report.h"
@@ -91,6 +93,23 @@ TEST(EvalReport, SomeRowsOnlyHaveNoChecksAndTheirOwnTrainingTime) {
   const std::string md = eval_report_markdown(r);
   EXPECT_NE(md.find("| HAHA filtered | 300 |"), std::string::npos);
   EXPECT_EQ(md.find("Requirements"), std::string::npos);
+}
+
+TEST(EvalReport, APartsPsnrIsReportedOnlyWhenAsked) {
+  EvalReport r = make_report(1000, 300, 25.0, 28.0, 27.8);
+  EXPECT_FALSE(nlohmann::json::parse(eval_report_json(r))["variants"][3].contains("psnr_part"));
+  EXPECT_EQ(eval_report_markdown(r).find("garment"), std::string::npos);
+  r.part = "garment";
+  r.variants[3].psnr_part = 21.25;
+  r.variants[3].frames[1].psnr_part = 22.5;
+  r.variants[0].psnr_part = std::nan("");  // no garment pixels in any frame
+  const auto j = nlohmann::json::parse(eval_report_json(r));
+  EXPECT_EQ(j["part"], "garment");
+  EXPECT_DOUBLE_EQ(j["variants"][3]["psnr_part"].get<double>(), 21.25);
+  EXPECT_DOUBLE_EQ(j["variants"][3]["frames"][1]["psnr_part"].get<double>(), 22.5);
+  EXPECT_TRUE(j["variants"][0]["psnr_part"].is_null());
+  EXPECT_NE(eval_report_markdown(r).find("PSNR over the garment's pixels"), std::string::npos);
+  EXPECT_NE(eval_report_markdown(r).find("HAHA filtered 21.25 dB."), std::string::npos);
 }
 
 class EvalReportFiles : public testutil::TempDirTest {};

@@ -1,10 +1,12 @@
-// `haha synth --subject N` and --view-shading through the executable: an unknown subject or
-// an out-of-range strength is one error line and exit code 1, before anything is written.
+// `haha synth --subject N`, --view-shading and --motion through the executable: an unknown
+// subject, an out-of-range strength or a bad motion file is one error line and exit code 1,
+// before anything is written.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <filesystem>
 #include <string>
 
@@ -37,6 +39,23 @@ TEST(SynthSubjectCli, UnknownSubjectOrShadingIsOneLine) {
   EXPECT_EQ(synth("--subject 2 --view-shading 7 --size 16 --frames 1 --test-frames 0 --body-resolution low", dir, &err), 1);
   EXPECT_EQ(err.rfind("haha: error: --view-shading: must be in [0, 2]", 0), 0u) << err;
   EXPECT_EQ(err.find('\n'), err.size() - 1) << err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  fs::remove_all(dir);
+}
+
+TEST(SynthSubjectCli, BadMotionFileIsOneLineNamingIt) {
+  if (!fs::exists(kHaha)) GTEST_SKIP() << "the haha executable is not built at " << kHaha;
+  const fs::path dir = fs::temp_directory_path() / ("haha-synth-motion-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string bad = (dir / "bad.npz").string();
+  std::ofstream(bad) << "not an npz";
+  std::string err;
+  EXPECT_EQ(synth("--motion '" + bad + "' --size 16 --body-resolution low", dir, &err), 1);
+  EXPECT_EQ(err.rfind("haha: error: " + bad + ": ", 0), 0u) << err;
+  EXPECT_EQ(err.find('\n'), err.size() - 1) << err;
+  // Options of the turn do not go with --motion; thinning needs it.
+  EXPECT_NE(synth("--motion '" + bad + "' --frames 3 --body-resolution low", dir, &err), 0);
+  EXPECT_NE(synth("--every 2 --size 16 --body-resolution low", dir, &err), 0);
   EXPECT_FALSE(fs::exists(dir / "out"));
   fs::remove_all(dir);
 }

@@ -140,6 +140,30 @@ TEST_F(SynthDataset, DeterministicForASeed) {
   EXPECT_NE(slurp(dir_ / "a/images/000001.png"), slurp(dir_ / "c/images/000001.png"));
 }
 
+// --part-masks on the turn: one mask per frame beside masks/, the skirt within the person;
+// the images are those of a dataset written without them.
+TEST_F(SynthDataset, PartMasksNameTheSkirtInEveryFrame) {
+  SynthOptions o = small_options();
+  write_synth_dataset(path("parts"), low_body(), o, false, nullptr, true);
+  write_synth_dataset(path("plain"), low_body(), o, false);
+  const Dataset ds = read_dataset(path("parts"));
+  EXPECT_FALSE(fs::exists(dir_ / "plain" / kSynthPartMaskDir));
+  int frames_with_skirt = 0;
+  for (size_t i = 0; i < ds.frames.size(); ++i) {
+    const std::string name = fs::path(ds.frames[i].image_path).filename().string();
+    EXPECT_EQ(slurp(dir_ / "parts/images" / name), slurp(dir_ / "plain/images" / name));
+    const Image part = read_image((dir_ / "parts" / kSynthPartMaskDir / name).string());
+    ASSERT_EQ(part.width, o.size);
+    int on = 0;
+    for (size_t p = 0; p < size_t(o.size) * o.size; ++p) {
+      on += part.data[p * size_t(part.channels)] > 0.5f;
+      ASSERT_LE(part.data[p * size_t(part.channels)], ds.frames[i].mask.data[p] + 1.5f / 255) << name;
+    }
+    frames_with_skirt += on > 0;
+  }
+  EXPECT_EQ(frames_with_skirt, int(ds.frames.size()));
+}
+
 // The whole subject-1 pipeline (motion, fit noise, camera, files): bytes of dataset.json,
 // the PNGs and the npz arrays, hashed on the code before subject 2 existed.
 TEST_F(SynthDataset, SubjectOneDatasetIsExactlyAsBefore) {

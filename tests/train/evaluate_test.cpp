@@ -41,6 +41,29 @@ TEST(Evaluate, TheRenderingAvatarScoresPerfectlyAndLayersMatter) {
   EXPECT_GT(both.render_ms, 0.0);
 }
 
+TEST(Evaluate, PartPsnrIsOverThePartsPixelsOnly) {
+  const Avatar a = scene_truth();
+  std::vector<TrainFrame> f = scene_frames(a, 2);
+  EvalOptions o;
+  o.tto_steps = 0;
+  o.premultiplied = true;
+  const EvalVariant mesh{"mesh", &a, true, false};
+  EXPECT_TRUE(std::isnan(evaluate_variant(mesh, f, o).psnr_part));  // no part given
+  // The person's pixels: the missing hair is there, the matching background is not.
+  for (TrainFrame& x : f) x.part = x.mask;
+  const VariantEval person = evaluate_variant(mesh, f, o);
+  ASSERT_TRUE(std::isfinite(person.psnr_part));
+  EXPECT_LT(person.psnr_part, person.psnr - 1.0);
+  EXPECT_TRUE(std::isfinite(person.frames[1].psnr_part));
+  // A frame without the part's pixels does not count in the mean.
+  f[1].part.assign(f[1].part.size(), 0.0f);
+  const VariantEval one = evaluate_variant(mesh, f, o);
+  EXPECT_TRUE(std::isnan(one.frames[1].psnr_part));
+  EXPECT_DOUBLE_EQ(one.psnr_part, one.frames[0].psnr_part);
+  f[0].part.resize(3);
+  EXPECT_THROW(evaluate_variant(mesh, f, o), Error);
+}
+
 // One frame of the scene whose fitted translation is off by 2 cm / -1 cm (the pose to recover).
 std::vector<TrainFrame> shifted_frames(const Avatar& a, int size) {
   std::vector<TrainFrame> f = scene_frames(a, 1, size);
