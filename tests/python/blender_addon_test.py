@@ -28,6 +28,7 @@ for a in ("--addons", "--avatar", "--haha", "--work"):
     ap.add_argument(a, required=True)
 ap.add_argument("--render-size", type=int, default=128)
 ap.add_argument("--samples", type=int, default=256)
+ap.add_argument("--lod-avatar", default="")  # the same run packed with --lod: tiers imported
 args = ap.parse_args(argv)
 failures = []
 PSNR_FLOOR = 30.0  # dB against haha render (the issue's bar)
@@ -211,4 +212,21 @@ def render_against_haha():
 scene.frame_set(11)
 addon.scene_build.set_input(splats, "Depth Margin", margin)
 render_against_haha()
+
+
+def import_lod_tiers():
+    """A file with importance tiers: max_gaussians brings the runtime's own prefix of them."""
+    full = haha.Avatar(args.lod_avatar).num_gaussians
+    first = haha.Avatar(args.lod_avatar, max_gaussians=1).num_gaussians  # the first tier, always loaded
+    before = set(o.name for o in scene.objects)
+    r = bpy.ops.import_scene.haha_avatar(filepath=args.lod_avatar, max_gaussians=first)
+    new = [scene.objects[n] for n in set(o.name for o in scene.objects) - before]
+    lod_arm = [o for o in new if o.type == "ARMATURE"]
+    got = len(lod_arm[0].data["haha_gaussians"].data.vertices) if r == {"FINISHED"} and lod_arm else -1
+    check(0 < got == first < full, "--lod file, max_gaussians=%d: %d of %d Gaussians imported (the first tier)"
+          % (first, got, full))
+
+
+if args.lod_avatar:
+    import_lod_tiers()
 finish()

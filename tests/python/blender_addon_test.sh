@@ -11,9 +11,12 @@ avatar="${4:-}"
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/../support/blender_test_setup.sh"
 blender_setup blender_avatar "$work"
+lod=()
 if [ -z "$avatar" ]; then
   avatar="$work/avatar.glb"
   tiny_avatar "$haha" "$work" "$avatar"
+  "$haha" pack "$work/run" --out "$work/avatar_lod.glb" --lod 3 >/dev/null  # importance tiers
+  lod=(--lod-avatar "$work/avatar_lod.glb")
 fi
 exec "$blender" -b --factory-startup --python-exit-code 1 --python "$here/blender_addon_test.py" -- \
-  --addons "$addons" --avatar "$avatar" --haha "$haha" --work "$work"
+  --addons "$addons" --avatar "$avatar" --haha "$haha" --work "$work" "${lod[@]}"

@@ -9,7 +9,8 @@ Python package `haha`, not by Blender's glTF importer) as
     the deformed body's face frames and drawn as camera-facing splats (EEVEE and Cycles).
 Posing, actions, drivers and export work as for any rigged character; no Python runs after
 the import. The body has no pose correctives (plain linear blend skinning).
-Operator: bpy.ops.import_scene.haha_avatar(filepath=...).
+Operator: bpy.ops.import_scene.haha_avatar(filepath=..., max_gaussians=0); max_gaussians > 0
+imports only the importance tiers within that count of a file packed with haha pack --lod.
 """
 bl_info = {
     "name": "HAHA avatar (.glb)",
@@ -28,7 +29,7 @@ if "bpy" in locals():
         importlib.reload(_m)
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
 from . import (camera, face_binding, gaussian_nodes, glb_skeleton, importer, node_util, plain_skin,  # noqa: F401
@@ -43,10 +44,14 @@ class IMPORT_SCENE_OT_haha_avatar(bpy.types.Operator, ImportHelper):
     bl_options = {"REGISTER", "UNDO"}
     filename_ext = ".glb"
     filter_glob: StringProperty(default="*.glb", options={"HIDDEN"})
+    max_gaussians: IntProperty(
+        name="Max Gaussians", default=0, min=0,
+        description="Files packed with importance tiers (haha pack --lod): import only the tiers within this "
+                    "count, the first always (0 = all)")
 
     def execute(self, context):
         try:
-            importer.import_avatar(context, self.filepath)
+            importer.import_avatar(context, self.filepath, self.max_gaussians)
         except Exception as e:  # the runtime's one-line message names the file
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}

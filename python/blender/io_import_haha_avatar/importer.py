@@ -3,6 +3,7 @@ layer bound to the body, all decoded by libhaha_runtime.so through the `haha` pa
 (Draco files included). Nothing runs in Python after the import: the Armature modifier and
 the geometry nodes do the posing."""
 import os
+import tempfile
 
 import bpy
 import numpy as np
@@ -26,13 +27,28 @@ def set_color_management(scene):
     scene.eevee.use_taa_reprojection = False
 
 
-def import_avatar(context, path):
-    """Imports `path`; returns the armature object. Raises with one line naming the file."""
+def _plain_avatar(haha, path, max_gaussians):
+    """The file without its pose correctives (plain_skin), with at most max_gaussians of its
+    importance tiers (haha pack --lod; 0: all). The runtime reads tiers from files only."""
+    data = plain_skin.without_pose_correctives(path)
+    if max_gaussians <= 0:
+        return haha.Avatar.from_bytes(data, name=path)
+    with tempfile.TemporaryDirectory() as d:
+        tmp = os.path.join(d, os.path.basename(path))
+        with open(tmp, "wb") as f:
+            f.write(data)
+        return haha.Avatar(tmp, max_gaussians=max_gaussians)
+
+
+def import_avatar(context, path, max_gaussians=0):
+    """Imports `path`; returns the armature object. Raises with one line naming the file.
+    max_gaussians > 0: a file packed with importance tiers brings only the tiers within that
+    count (the first always), as haha_avatar_load_lod does for a distant avatar."""
     haha = runtime_link.import_haha()
     path = os.path.abspath(bpy.path.abspath(path))
     haha.Avatar(path)  # haha.FileError / haha.FormatError: "<file>: <problem>"
     skeleton = glb_skeleton.read_skeleton(path)
-    plain = haha.Avatar.from_bytes(plain_skin.without_pose_correctives(path), name=path)
+    plain = _plain_avatar(haha, path, max_gaussians)
     if len(skeleton) != plain.num_joints:
         raise ValueError("%s: the skin has %d joints, the avatar %d" % (path, len(skeleton), plain.num_joints))
     rest = plain.repose()
