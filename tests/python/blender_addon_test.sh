@@ -11,11 +11,10 @@ avatar="${4:-}"
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/../support/blender_test_setup.sh"
 blender_setup blender_avatar "$work"
+avatar=$(given_or_tiny_avatar "$haha" "$work" "$avatar")
 lod=()
-if [ -z "$avatar" ]; then
-  avatar="$work/avatar.glb"
-  tiny_avatar "$haha" "$work" "$avatar"
-  "$haha" pack "$work/run" --out "$work/avatar_lod.glb" --lod 3 >/dev/null  # importance tiers
+if [ -d "$work/run" ]; then  # the tiny run made here: packed again with importance tiers
+  "$haha" pack "$work/run" --out "$work/avatar_lod.glb" --lod 3 >/dev/null
   lod=(--lod-avatar "$work/avatar_lod.glb")
 fi
 exec "$blender" -b --factory-startup --python-exit-code 1 --python "$here/blender_addon_test.py" -- \

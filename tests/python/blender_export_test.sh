@@ -11,9 +11,6 @@ avatar="${4:-}"
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/../support/blender_test_setup.sh"
 blender_setup blender_export "$work"
-if [ -z "$avatar" ]; then
-  avatar="$work/avatar.glb"
-  tiny_avatar "$haha" "$work" "$avatar"
-fi
+avatar=$(given_or_tiny_avatar "$haha" "$work" "$avatar")
 exec "$blender" -b --factory-startup --python-exit-code 1 --python "$here/blender_export_test.py" -- \
   --addons "$addons" --avatar "$avatar" --haha "$haha" --work "$work"

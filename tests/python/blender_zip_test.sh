@@ -12,10 +12,7 @@ avatar="${4:-}"
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/../support/blender_test_setup.sh"
 blender_setup blender_addon_zip "$work"
-if [ -z "$avatar" ]; then
-  avatar="$work/avatar.glb"
-  tiny_avatar "$haha" "$work" "$avatar"
-fi
+avatar=$(given_or_tiny_avatar "$haha" "$work" "$avatar")
 bash "$here/../../scripts/blender-addon-zip.sh" "$runtime" "$work/haha-blender-addon.zip" "$blender"
 mkdir -p "$work/profile/config" "$work/profile/scripts"
 exec env $(env | awk -F= '/^HAHA_/ {printf "-u %s ", $1}') \

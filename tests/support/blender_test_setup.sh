@@ -3,6 +3,9 @@
 #                                when Blender or its numpy is missing, then makes an empty WORKDIR
 #   tiny_avatar HAHA WORKDIR OUT.glb [haha pack options]
 #                                the tiny trained avatar of the interop tests, packed into OUT.glb
+#   given_or_tiny_avatar HAHA WORKDIR [AVATAR.glb]
+#                                prints AVATAR.glb, or without one makes WORKDIR/avatar.glb
+#                                (tiny_avatar; its run stays in WORKDIR/run) and prints that
 # Blender is not part of scripts/install-deps.sh (it is large).
 blender="${HAHA_BLENDER:-blender}"
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
@@ -27,4 +30,14 @@ tiny_avatar() {
     s1.densify.until=40 s1.densify.every=20 s2.steps=30 s2.texture_size=64 s3.steps=30 s3.prune_every=20 \
     log_every=1000 >/dev/null
   "$haha" pack "$work/run" --out "$out" "$@" >/dev/null
+}
+
+given_or_tiny_avatar() {
+  local haha="$1" work="$2" given="${3:-}"
+  if [ -n "$given" ]; then
+    echo "$given"
+    return
+  fi
+  tiny_avatar "$haha" "$work" "$work/avatar.glb"
+  echo "$work/avatar.glb"
 }
