@@ -49,6 +49,15 @@ struct BodyModel {
   // body's. Not part of a model file: the trainer fits it, the run and the .glb carry it.
   std::vector<float> rest_offsets;
 
+  // A garment appended after the body (body/garment.h): vertices, faces and UVs from these
+  // indices on are the garment's; 0 = none (every vertex is the body's). `garment_chart`:
+  // the share of the texture's width, on the right, that is the garment's chart.
+  int garment_first_vert = 0, garment_first_face = 0, garment_first_uv = 0;
+  float garment_chart = 0;
+  bool has_garment() const { return garment_first_vert > 0; }
+  int num_body_verts() const { return has_garment() ? garment_first_vert : num_verts; }
+  int num_body_faces() const { return has_garment() ? garment_first_face : num_faces; }
+
   // Hand PCA (45 x 45 components, 45 means) for fits that store PCA coefficients.
   std::vector<float> hands_components_l, hands_components_r;  // (45, 45)
   std::vector<float> hands_mean_l, hands_mean_r;              // (45)
