@@ -14,6 +14,7 @@
 //   smplx_refined.npz        the refined per-frame fits of the training frames
 //   rest_offsets.npy         (V, 3) the clothed surface's rest displacement, when the run fitted
 //                            one (s0.surface; --resume reads it back; avatar.npz carries it too)
+//   garment.npz              the garment appended to the body (s0.garment), when one was made
 //   train_summary.json       stage wall times, Gaussian counts, skipped steps, last losses
 //   report.json, report.md, eval_sheet.png   written by `haha eval`
 //   body.npz                 the body model, in an unpacked avatar's directory
@@ -40,6 +41,7 @@ struct RunDir {
   std::string stage1_avatar() const { return file("avatar_stage1.npz"); }
   std::string refined_fits() const { return file("smplx_refined.npz"); }
   std::string rest_offsets() const { return file("rest_offsets.npy"); }
+  std::string garment() const { return file("garment.npz"); }
   std::string train_summary() const { return file("train_summary.json"); }
   std::string report_json() const { return file("report.json"); }
   std::string report_md() const { return file("report.md"); }

@@ -21,6 +21,7 @@
 #include "io/smplx_params_io.h"
 #include "train/device.h"
 #include "train/photo_fit.h"
+#include "train/garment_fit.h"
 #include "train/surface_fit.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
@@ -89,28 +90,39 @@ void photo_fit_poses(const BodyModel& body, Dataset& ds, std::vector<TrainFrame>
 
 // The clothed surface (train/surface_fit.h) with progress lines: the body the trainer gets,
 // its rest displacement also written to the run directory (a resumed run reads it back).
+// With a garment on the body and the surface fit off, the garment alone is fitted.
 BodyModel fit_clothed_surface(const BodyModel& body, const std::vector<TrainFrame>& frames, bool premultiplied,
                               const TrainConfig& cfg, const RunDir& run, const std::function<void(const std::string&)>& log,
                               ojson& summary) {
   const auto t0 = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  Stage0Config::Surface opt = cfg.s0.surface;
+  opt.garment_max_out = cfg.s0.garment.max_out;
+  opt.garment_only = opt.steps <= 0;
+  if (opt.garment_only) {
+    opt.steps = cfg.s0.garment.steps;
+    opt.lr = cfg.s0.garment.lr;
+    opt.lr_final = cfg.s0.garment.lr_final;
+    opt.w_laplacian = cfg.s0.garment.w_laplacian;
+  }
+  const char* what = opt.garment_only ? "garment" : "clothed surface";
   const SurfaceFitReport fit =
-      fit_rest_surface(body, frames, premultiplied, cfg.s0.surface, cfg.seed, [&](int done, int total, double loss) {
+      fit_rest_surface(body, frames, premultiplied, opt, cfg.seed, [&](int done, int total, double loss) {
         check_interrupted();  // Ctrl-C: nothing of the run is written yet
         char line[160];
-        std::snprintf(line, sizeof line, "[clothed surface] step %d/%d | loss %.4g | ETA %s", done, total, loss,
+        std::snprintf(line, sizeof line, "[%s] step %d/%d | loss %.4g | ETA %s", what, done, total, loss,
                       format_duration(seconds() / done * (total - done)).c_str());
         log(line);
       });
   char line[240];
   std::snprintf(line, sizeof line,
-                "clothed surface: %d steps at %d px, data loss %.4g -> %.4g; displacement mean %.1f mm, 95%% under %.1f mm, "
+                "%s: %d steps at %d px, data loss %.4g -> %.4g; displacement mean %.1f mm, 95%% under %.1f mm, "
                 "largest %.1f mm (%.1f s)",
-                cfg.s0.surface.steps, fit.side, fit.loss_start, fit.loss_end, fit.mean_mm, fit.p95_mm, fit.max_mm, seconds());
+                what, opt.steps, fit.side, fit.loss_start, fit.loss_end, fit.mean_mm, fit.p95_mm, fit.max_mm, seconds());
   log(line);
-  summary = {{"steps", cfg.s0.surface.steps}, {"side", fit.side},      {"loss", {fit.loss_start, fit.loss_end}},
-             {"mean_mm", fit.mean_mm},       {"p95_mm", fit.p95_mm}, {"max_mm", fit.max_mm},
-             {"seconds", seconds()}};
+  summary["clothed_surface"] = {{"steps", opt.steps}, {"garment_only", opt.garment_only}, {"side", fit.side},
+                                {"loss", {fit.loss_start, fit.loss_end}}, {"mean_mm", fit.mean_mm}, {"p95_mm", fit.p95_mm},
+                                {"max_mm", fit.max_mm}, {"seconds", seconds()}};
   ensure_directory(run.dir);
   write_npy(run.rest_offsets(), NpyArray::from(fit.offsets, {int64_t(body.num_verts), 3}));
   BodyModel out = body;
@@ -118,28 +130,50 @@ BodyModel fit_clothed_surface(const BodyModel& body, const std::vector<TrainFram
   return out;
 }
 
-// A resumed run's body: the model with the rest displacement its first run fitted.
-BodyModel resumed_body(const BodyModel& body, const TrainConfig& cfg, const RunDir& run) {
-  if (cfg.s0.surface.steps <= 0) return body;
+// The garment decision (train/garment_fit.h): the body with the garment appended (written to
+// the run directory for --resume) or the body as it was; one log line, summary["garment"].
+BodyModel with_garment(const BodyModel& model, const std::vector<TrainFrame>& frames, const TrainConfig& cfg,
+                       const RunDir& run, const std::function<void(const std::string&)>& log, ojson& summary) {
+  const GarmentDecision d = decide_garment(model, frames, cfg.s0.garment);
+  log(d.why);
+  ojson levels = ojson::array();
+  for (size_t k = 0; k < d.t.size(); ++k)
+    levels.push_back({{"t", d.t[k]}, {"pixels", d.pixels[k]}, {"fill", std::isnan(d.fill[k]) ? ojson() : ojson(d.fill[k])}});
+  summary["garment"] = {{"mode", d.mode}, {"made", d.made}, {"why", d.why}, {"levels", levels}};
+  if (!d.made) return model;
+  summary["garment"]["y_top"] = d.y_top;
+  summary["garment"]["y_hem"] = d.y_hem;
+  summary["garment"]["vertices"] = d.garment.num_verts();
+  summary["garment"]["faces"] = d.garment.num_faces();
+  ensure_directory(run.dir);
+  save_garment_npz(d.garment, run.garment());
+  return append_garment(model, d.garment);
+}
+
+// A resumed run's body: the model with the garment and the rest displacement its first run
+// made.
+BodyModel resumed_body(const BodyModel& model, const TrainConfig& cfg, const RunDir& run) {
+  BodyModel out = fs::exists(run.garment()) ? append_garment(model, load_garment_npz(run.garment())) : model;
+  if (cfg.s0.surface.steps <= 0 && (!out.has_garment() || cfg.s0.garment.steps <= 0)) return out;  // nothing fitted
   const std::string path = run.rest_offsets();
   if (!fs::exists(path)) fail(path, "--resume: the run fitted a clothed surface but its displacement is missing");
-  BodyModel out = body;
   out.rest_offsets = read_npy(path).as_float();
-  if (out.rest_offsets.size() != size_t(body.num_verts) * 3)
-    fail(path, "rest displacement of " + std::to_string(out.rest_offsets.size() / 3) + " vertices, the body model has " +
-                   std::to_string(body.num_verts));
+  if (out.rest_offsets.size() != size_t(out.num_verts) * 3)
+    fail(path, "rest displacement of " + std::to_string(out.rest_offsets.size() / 3) + " vertices, the body has " +
+                   std::to_string(out.num_verts));
   for (float x : out.rest_offsets)
     if (!std::isfinite(x)) fail(path, "non-finite rest displacement");
   return out;
 }
 
-// The body the trainer gets: the model, with the clothed surface fitted now or (resume) read
-// back from the run.
+// The body the trainer gets: the model with the garment (when one is made) and the clothed
+// surface fitted now, or (resume) read back from the run.
 BodyModel training_body(const BodyModel& model, const TrainInput& input, const TrainConfig& cfg, const RunDir& run,
                         bool resume, const std::function<void(const std::string&)>& log, ojson& summary) {
   if (resume) return resumed_body(model, cfg, run);
-  if (cfg.s0.surface.steps <= 0) return model;
-  return fit_clothed_surface(model, input.frames, input.premultiplied, cfg, run, log, summary);
+  const BodyModel body = with_garment(model, input.frames, cfg, run, log, summary);
+  if (cfg.s0.surface.steps <= 0 && (!body.has_garment() || cfg.s0.garment.steps <= 0)) return body;
+  return fit_clothed_surface(body, input.frames, input.premultiplied, cfg, run, log, summary);
 }
 
 // The filtering's validated stop for train_summary.json, and its log line.
@@ -195,7 +229,7 @@ void write_run_outputs(const Trainer& trainer, const RunDir& run, int W, int H, 
   s["lpips"] = trainer.lpips_active();
   s["threads"] = num_threads();
   s["device"] = device_name(trainer.device());
-  if (!surface_summary.is_null()) s["clothed_surface"] = surface_summary;
+  for (const auto& [k, v] : surface_summary.items()) s[k] = v;  // clothed_surface, garment
   if (trainer.filter_choice() >= 0) s["filter_stop"] = filter_stop_summary(trainer, res.gaussians_stage1, log);
   write_text_file(run.train_summary(), s.dump(2) + "\n");
   char buf[256];
@@ -278,7 +312,7 @@ TrainRunResult run_training(const TrainRunOptions& opt) {
         " training frames held out of training, to choose where the filtering stops");
   }
   const int num_frames = int(input.frames.size());
-  ojson surface_summary;  // null without a clothed-surface fit in this call
+  ojson surface_summary = ojson::object();  // the garment decision and the clothed-surface fit of this call
   const BodyModel body = training_body(model, input, cfg, run, opt.resume, log, surface_summary);
   input.body = &body;
   Trainer trainer(cfg, std::move(input), device);

@@ -8,6 +8,43 @@
 
 namespace haha {
 
+namespace {
+
+// The garment's arrays under garment_* keys (avatar.npz, the run's garment.npz).
+void put_garment(Npz& z, const Garment& gm) {
+  const int64_t G = gm.num_verts(), F = gm.num_faces();
+  z.set("garment_vertices", NpyArray::from(gm.verts, {G, 3}));
+  z.set("garment_faces", NpyArray::from(gm.faces, {F, 3}));
+  z.set("garment_weights", NpyArray::from(gm.weights, {G, int64_t(kNumJoints)}));
+  z.set("garment_uv", NpyArray::from(gm.vt, {int64_t(gm.vt.size() / 2), 2}));
+  z.set("garment_uv_faces", NpyArray::from(gm.ft, {F, 3}));
+  z.set("garment_chart", NpyArray::from(std::vector<float>{gm.chart}, {1}));
+}
+
+Garment get_garment(const Npz& z, const std::string& path) {
+  Garment gm;
+  gm.verts = z.get("garment_vertices", {-1, 3}).as_float();
+  const int64_t G = int64_t(gm.verts.size() / 3);
+  gm.faces = z.get("garment_faces", {-1, 3}).as_int32();
+  gm.weights = z.get("garment_weights", {G, int64_t(kNumJoints)}).as_float();
+  gm.vt = z.get("garment_uv", {-1, 2}).as_float();
+  gm.ft = z.get("garment_uv_faces", {int64_t(gm.faces.size() / 3), 3}).as_int32();
+  gm.chart = z.get("garment_chart", {1}).as_float()[0];
+  validate_garment(gm, path.c_str());
+  return gm;
+}
+
+}  // namespace
+
+void save_garment_npz(const Garment& g, const std::string& path) {
+  validate_garment(g, path.c_str());
+  Npz z(path);
+  put_garment(z, g);
+  z.write(path);
+}
+
+Garment load_garment_npz(const std::string& path) { return get_garment(Npz::read(path), path); }
+
 void save_avatar_npz(const Avatar& a, const std::string& path) {
   validate_subject(a, path);
   validate_gaussians(a.gaussians, -1, path);
@@ -28,6 +65,8 @@ void save_avatar_npz(const Avatar& a, const std::string& path) {
   z.set("gaussian_opacity", NpyArray::from(g.opacity, {n}));
   const std::vector<float>& d = a.body.rest_offsets;
   if (!d.empty()) z.set("rest_offsets", NpyArray::from(d, {int64_t(d.size() / 3), 3}));
+  const Garment gm = a.body.has_garment() ? garment_of(a.body) : a.garment;
+  if (!gm.empty()) put_garment(z, gm);
   z.write(path);
 }
 
@@ -61,12 +100,20 @@ Avatar load_avatar_npz(const std::string& path) {
     for (float x : a.body.rest_offsets)
       if (!std::isfinite(x)) fail(path, "rest_offsets: non-finite value");
   }
+  if (z.has("garment_vertices")) a.garment = get_garment(z, path);
   validate_subject(a, path);
   validate_gaussians(g, -1, path);
   return a;
 }
 
 void attach_body(Avatar& a, BodyModel body, const std::string& path) {
+  if (!a.garment.empty()) {  // the garment's vertices follow the body's: the offsets cover both
+    if (!body.has_garment())
+      body = append_garment(body, a.garment);
+    else if (garment_of(body).verts != a.garment.verts)  // an avatar's own body (eval's stage-1 avatar)
+      fail(path, "garment: the body has another garment than the avatar's");
+    a.garment = Garment();
+  }
   std::vector<float> d = std::move(a.body.rest_offsets);
   if (!d.empty() && d.size() != size_t(body.num_verts) * 3)
     fail(path, "rest_offsets: " + std::to_string(d.size() / 3) + " vertices, the body model has " +

@@ -30,14 +30,20 @@ inline constexpr int kAvatarNpzVersion = 1;
 // non-finite values.
 void save_avatar_npz(const Avatar& avatar, const std::string& path);
 
-// Reads avatar.npz; the returned body is empty but for its rest_offsets. Shapes,
+// Reads avatar.npz; the returned body is empty but for its rest_offsets, and `garment` holds
+// the garment the run appended to the body (body/garment.h), if any. Shapes,
 // finiteness and value ranges are checked ("path: key: problem"); face indices are checked
 // once a body is attached.
 Avatar load_avatar_npz(const std::string& path);
 
-// Makes `body` (the model the run was trained on) the avatar's, keeping the rest
-// displacement the avatar.npz carried. Throws "path: rest_offsets: ..." when its vertex
+// Makes `body` (the model the run was trained on) with the avatar's garment appended the
+// avatar's, keeping the rest displacement the avatar.npz carried. Throws "path: rest_offsets: ..." when its vertex
 // count is not the model's.
 void attach_body(Avatar& avatar, BodyModel body, const std::string& path);
+
+// A garment alone (the run directory's garment.npz: what a resumed run appends again), under
+// the same keys as in avatar.npz. Both check it (validate_garment).
+void save_garment_npz(const Garment& garment, const std::string& path);
+Garment load_garment_npz(const std::string& path);
 
 }  // namespace haha

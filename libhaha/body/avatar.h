@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "body/body_model.h"
+#include "body/garment.h"
 
 namespace haha {
 
@@ -37,6 +38,10 @@ struct Avatar {
   std::vector<float> expression;  // subject expression (usually zeros)
   Texture texture;
   BoundGaussians gaussians;
+  // Read from avatar.npz before the body model is known (format/avatar_npz.h): attach_body
+  // appends it to `body`, and from then on `body` carries it (BodyModel::has_garment). Empty
+  // otherwise; the trainer's and the unpacker's avatars keep it in `body` only.
+  Garment garment;
   float face_scale_divisor = 1.0f;  // k is divided by this (release: 0.05) so k ~ 1
   // Depth test of the merge: a Gaussian shows in front of the mesh where its centre's
   // camera z <= D + depth_margin (metres; the trainer's s3.depth_margin, 0 = exact).

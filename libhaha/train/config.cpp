@@ -86,6 +86,19 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
                "photometric pose fit: weight of the squared change of the pose from its anchor"});
   v.push_back({"s0.photo.w.ssim", K::Double, &ph.w_ssim, "photometric pose fit: weight of 1 - SSIM beside the L2"});
   v.push_back({"s0.photo.w.sobel", K::Double, &ph.w_sobel, "photometric pose fit: weight of the edge loss beside the L2"});
+  Stage0Config::Garment& gm = s0.garment;
+  v.push_back({"s0.garment.mode", K::String, &gm.mode,
+               "garment around both legs: auto (from the masks), skirt (always), none (never)"});
+  v.push_back({"s0.garment.fill", K::Double, &gm.fill, "garment: share of the between-legs pixels in the mask that means one"});
+  v.push_back({"s0.garment.max_frames", K::Int, &gm.max_frames, "garment: frames measured for the decision"});
+  v.push_back({"s0.garment.rings", K::Int, &gm.rings, "garment: rings from the waist to the hem"});
+  v.push_back({"s0.garment.columns", K::Int, &gm.columns, "garment: vertices around each ring"});
+  v.push_back({"s0.garment.chart", K::Double, &gm.chart, "garment: share of the texture's width for its chart"});
+  v.push_back({"s0.garment.max_out", K::Double, &gm.max_out, "garment: largest outward move in the fit (metres)"});
+  v.push_back({"s0.garment.steps", K::Int, &gm.steps, "garment: fit steps when the clothed surface is off"});
+  v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of its own fit (metres)"});
+  v.push_back({"s0.garment.lr_final", K::Double, &gm.lr_final, "garment: displacement lr at the end of its own fit"});
+  v.push_back({"s0.garment.w.laplacian", K::Double, &gm.w_laplacian, "garment: smoothness weight of its own fit"});
   Stage0Config::Surface& sf = s0.surface;
   v.push_back({"s0.surface.steps", K::Int, &sf.steps,
                "clothed surface: displacement of the rest body fitted before stage 1, steps in all (0 = off)"});
@@ -377,6 +390,16 @@ void validate_config(const TrainConfig& c) {
   need(c.s0.surface.max_out <= 0.5 && c.s0.surface.max_held <= c.s0.surface.max_out, "s0.surface.max_out",
        "must be <= 0.5 m and >= s0.surface.max_held");
   need(c.s0.surface.max_in <= 0.05, "s0.surface.max_in", "must be <= 0.05 m");
+  const Stage0Config::Garment& gm = c.s0.garment;
+  need(gm.mode == "auto" || gm.mode == "skirt" || gm.mode == "none", "s0.garment.mode", "must be auto, skirt or none");
+  need(gm.fill > 0 && gm.fill <= 1, "s0.garment.fill", "must be in (0, 1]");
+  need(gm.max_frames >= 1, "s0.garment.max_frames", "must be >= 1");
+  need(gm.rings >= 2 && gm.rings <= 256 && gm.columns >= 8 && gm.columns <= 1024, "s0.garment.rings",
+       "rings in [2, 256], columns in [8, 1024]");
+  need(gm.chart > 0 && gm.chart <= 0.5, "s0.garment.chart", "must be in (0, 0.5]");
+  need(gm.max_out >= 0 && gm.max_out <= 0.5, "s0.garment.max_out", "must be in [0, 0.5] m");
+  need(gm.steps >= 0, "s0.garment.steps", "must be >= 0");
+  need(gm.lr > 0 && gm.lr_final > 0 && gm.w_laplacian >= 0, "s0.garment.lr", "rates > 0, smoothness >= 0");
   make_level_schedule(c.s1.levels, c.s1.steps, "s1.levels");
   make_level_schedule(c.s2.levels, c.s2.steps, "s2.levels");
   make_level_schedule(c.s3.levels, c.s3.steps, "s3.levels");

@@ -81,7 +81,26 @@ struct Stage0Config {
     double w_photo = 1;         // |I - gt|^2 per pixel over a random background
     double w_laplacian = 3e4;   // mean over vertices of (h - mean of the neighbours' h)^2, metres
     double w_shrink = 1;        // mean over vertices of h^2: what no view asks for stays on the body
+    // A garment appended to the body (not keys: the run sets them from s0.garment): its
+    // vertices move in [0, garment_max_out]; garment_only holds the body's at 0.
+    double garment_max_out = 0.2;
+    bool garment_only = false;
   } surface;
+  // A garment around both legs (body/garment.h, train/garment_fit.h): detected from the
+  // masks, appended to the body, shaped by the clothed-surface fit before stage 1.
+  struct Garment {
+    std::string mode = "auto";  // auto (made when the masks fill the space between the legs) | skirt | none
+    double fill = 0.5;          // share of the between-legs pixels in the mask that means a garment
+    int max_frames = 40;        // frames measured, evenly spread
+    int rings = 14, columns = 48;
+    double chart = 0.2;         // share of the texture's width for the garment's chart
+    double max_out = 0.2;       // largest outward move of a garment vertex in the fit (metres)
+    int steps = 400;            // the fit's steps when s0.surface.steps is 0 (the garment alone moves)
+    // ... and its rates and smoothness then (a flared hem moves ~10 cm from the loft it starts
+    // as, far more than a body's displacement; with s0.surface on, the surface's values hold)
+    double lr = 4e-3, lr_final = 4e-4;
+    double w_laplacian = 3e3;
+  } garment;
 };
 
 struct Stage1Config {

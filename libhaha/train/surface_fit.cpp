@@ -158,7 +158,14 @@ class SurfaceFit {
       : body_(body), frames_(frames), premultiplied_(premultiplied), opt_(opt), seed_(seed),
         neighbors_(mesh_face_neighbors(body.faces.data(), body.num_faces, body.num_verts)), topology_(topology_of(body)),
         silhouette_(body), adj_(vertex_adjacency(body.faces.data(), body.num_faces, body.num_verts)),
-        upper_(outward_bounds(body, opt.max_out, opt.max_held)) {
+        upper_(outward_bounds(body, opt.max_out, opt.max_held)), lower_(size_t(body.num_verts), -float(opt.max_in)) {
+    // A garment starts outside the body and only moves out; with garment_only the body stays.
+    for (int v = 0; v < body.num_verts; ++v) {
+      const bool garment = v >= body.num_body_verts();
+      if (garment) upper_[size_t(v)] = float(opt.garment_max_out);
+      if (garment || opt.garment_only) lower_[size_t(v)] = 0.0f;
+      if (!garment && opt.garment_only) upper_[size_t(v)] = 0.0f;
+    }
     topology_.face_neighbors = neighbors_.data();
     schedule_ = make_level_schedule(opt_.levels, opt_.steps, "s0.surface.levels");
     warmup_steps_ = int(std::lround(opt_.warmup * opt_.steps));
@@ -190,7 +197,7 @@ class SurfaceFit {
     if (move) {
       h_adam_.set_lr(0, LogLinearLr{opt_.lr, opt_.lr_final, std::max(1, opt_.steps - warmup_steps_)}(s - warmup_steps_));
       h_adam_.step(0, h_.data(), d_h_.data());
-      for (int v = 0; v < V; ++v) h_[size_t(v)] = std::clamp(h_[size_t(v)], -float(opt_.max_in), upper_[size_t(v)]);
+      for (int v = 0; v < V; ++v) h_[size_t(v)] = std::clamp(h_[size_t(v)], lower_[size_t(v)], upper_[size_t(v)]);
     }
     return loss;
   }
@@ -299,7 +306,7 @@ class SurfaceFit {
   BodyTopology topology_;
   BodySilhouette silhouette_;
   VertexAdjacency adj_;
-  std::vector<float> upper_, h_, d_h_, normals_;
+  std::vector<float> upper_, lower_, h_, d_h_, normals_;
   std::vector<std::vector<float>> base_, dir_;
   LevelSchedule schedule_;
   int warmup_steps_ = 0, level_ = -1, texture_side_ = 0;

@@ -357,6 +357,47 @@ TEST_F(TrainRunTest, ClothedSurfaceIsKeptByTheRunAndItsResume) {
   EXPECT_FALSE(fs::exists(path("run3")));
 }
 
+// A garment (forced on the scene's bare body): made and fitted before stage 1, kept in the
+// run (garment.npz, avatar.npz), appended again by --resume so the resumed run ends where the
+// uninterrupted one does; `none` makes none.
+TEST_F(TrainRunTest, GarmentIsKeptByTheRunAndItsResume) {
+  const std::string data = make_dataset();
+  auto with_garment = [&](const std::string& run, const char* mode) {
+    TrainRunOptions o = options(data, path(run));
+    o.overrides.insert(o.overrides.end(), {std::string("s0.garment.mode=") + mode, "s0.garment.steps=20",
+                                           "s0.garment.rings=4", "s0.garment.columns=12", "s0.surface.resolution=48",
+                                           "s0.surface.texture_size=16"});
+    return o;
+  };
+  ASSERT_TRUE(run_training(with_garment("run", "skirt")).finished);
+  EXPECT_NE(log_.find("garment forced by s0.garment.mode=skirt"), std::string::npos) << log_;
+  EXPECT_NE(log_.find("[garment] step 20/20"), std::string::npos) << log_;
+  ASSERT_TRUE(fs::exists(path("run/garment.npz")));
+  const Avatar a = load_run_avatar(RunDir(path("run")), "");
+  ASSERT_TRUE(a.body.has_garment());
+  EXPECT_EQ(a.body.num_verts, test::scene_body().num_verts + 4 * 12);
+  EXPECT_EQ(a.body.rest_offsets.size(), size_t(a.body.num_verts) * 3);
+  EXPECT_TRUE(load_stage1_avatar(RunDir(path("run")), a.body).body.has_garment());
+  std::ifstream summary(path("run/train_summary.json"));
+  const std::string text((std::istreambuf_iterator<char>(summary)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"garment\""), std::string::npos);
+  EXPECT_NE(text.find("\"garment_only\": true"), std::string::npos) << text;
+
+  TrainRunOptions o = with_garment("run2", "skirt");
+  o.stop_after = 8;
+  EXPECT_FALSE(run_training(o).finished);
+  TrainRunOptions r = options("", path("run2"));
+  r.overrides.clear();
+  r.resume = true;
+  ASSERT_TRUE(run_training(r).finished);
+  EXPECT_EQ(read_checkpoint(path("run/checkpoint.npz")).f32, read_checkpoint(path("run2/checkpoint.npz")).f32);
+  EXPECT_EQ(load_run_avatar(RunDir(path("run2")), "").body.num_verts, a.body.num_verts);
+
+  ASSERT_TRUE(run_training(with_garment("run3", "none")).finished);
+  EXPECT_FALSE(fs::exists(path("run3/garment.npz")));
+  EXPECT_FALSE(load_run_avatar(RunDir(path("run3")), "").body.has_garment());
+}
+
 TEST_F(TrainRunTest, ValidatedFilteringHoldsFramesOutAndSaysWhereItStopped) {
   const std::string data = make_dataset();
   TrainRunOptions o = options(data, path("run"));

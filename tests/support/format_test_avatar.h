@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "body/avatar.h"
+#include "body/garment.h"
 
 namespace haha::test {
 
@@ -121,6 +122,33 @@ inline Avatar without_degenerate_face(Avatar a) {
   b.num_faces = last;
   for (int32_t& f : a.gaussians.face)
     if (f == last) f = 0;
+  return a;
+}
+
+// A garment of two triangles below the tube's middle, hanging from the pelvis and both hips,
+// its chart on the right fifth of the texture.
+inline Garment make_test_garment() {
+  Garment g;
+  g.verts = {0.1f, -0.2f, 0.1f, -0.1f, -0.2f, 0.1f, 0.1f, -0.5f, 0.15f, -0.1f, -0.5f, 0.15f};
+  g.faces = {0, 1, 2, 1, 3, 2};
+  g.weights.assign(4 * size_t(kNumJoints), 0.0f);
+  for (int v = 0; v < 4; ++v) {
+    g.weights[size_t(v) * kNumJoints + 0] = 0.5f;
+    g.weights[size_t(v) * kNumJoints + 1] = 0.25f;
+    g.weights[size_t(v) * kNumJoints + 2] = 0.25f;
+  }
+  g.vt = {0.85f, 0.1f, 0.85f, 0.9f, 0.95f, 0.1f, 0.95f, 0.9f};
+  g.ft = g.faces;
+  g.chart = 0.2f;
+  return g;
+}
+
+// The avatar with the test garment appended to its body, its first `n` Gaussians moved onto
+// the garment's two faces.
+inline Avatar with_test_garment(Avatar a, int n = 5) {
+  const int first = a.body.num_faces;
+  a.body = append_garment(a.body, make_test_garment());
+  for (int i = 0; i < n && i < a.gaussians.size(); ++i) a.gaussians.face[size_t(i)] = first + i % 2;
   return a;
 }
 

@@ -1,5 +1,6 @@
 // The run's avatar.npz reader (format/avatar_npz.h), with the body attached as `haha pack`
-// and `haha eval` attach it: the optional rest displacement of the clothed surface included.
+// and `haha eval` attach it: the optional rest displacement of the clothed surface and the
+// garment appended to the body included.
 #include <filesystem>
 
 #include "format/avatar_npz.h"
@@ -25,5 +26,10 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   a.body.rest_offsets.assign(small.v_template.size(), 0.01f);
   haha::save_avatar_npz(a, p);
   haha::fuzz::write_seed(dir, "clothed.npz", haha::fuzz::file_bytes(p));
+  // The test garment, with the displacement covering it too.
+  a.garment = haha::test::make_test_garment();
+  a.body.rest_offsets.assign(small.v_template.size() + a.garment.verts.size(), 0.01f);
+  haha::save_avatar_npz(a, p);
+  haha::fuzz::write_seed(dir, "garment.npz", haha::fuzz::file_bytes(p));
   std::filesystem::remove(p);
 }
