@@ -180,6 +180,11 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
     << s.num_faces << " faces, " << s.skin_sets << " skin set(s) for up to " << s.max_influences
     << " influences (" << (!s.draco_mesh ? "plain accessors, no Draco " : s.edgebreaker ? "Draco edgebreaker " : "Draco sequential ")
     << bytes(s.mesh) << (s.draco_mesh ? "; bits " + bits_text(i.mesh_bits) : std::string()) << ")\n";
+  if (i.garment_first_vertex >= 0) {
+    o << "  garment       vertices from " << i.garment_first_vertex << ", faces from " << i.garment_first_face << " ("
+      << (i.body_vertex_count - i.garment_first_vertex) << " vertices, " << (s.num_faces - i.garment_first_face)
+      << " faces), carrying " << i.garment_gaussians << " Gaussians\n";
+  }
   if (i.joint_regressor_nonzeros > 0) {
     o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";
   } else {

@@ -522,6 +522,12 @@ void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackO
   // and which topology supplies them when they are not embedded.
   body["trainedWithPoseCorrectives"] = !b.posedirs.empty();
   body["topologyCrc32"] = glb::crc32(reinterpret_cast<const uint8_t*>(b.faces.data()), b.faces.size() * 4);
+  if (b.has_garment()) {  // the garment's part of the one mesh, and the Gaussians it carries
+    const auto& gf = a.gaussians.face;
+    const long carried = std::count_if(gf.begin(), gf.end(), [&](int32_t f) { return f >= b.garment_first_face; });
+    body["garment"] = {{"firstVertex", b.garment_first_vert}, {"firstFace", b.garment_first_face},
+                       {"chart", b.garment_chart}, {"gaussians", carried}};
+  }
 }
 
 // The skeleton: joint nodes (identity rest rotation, translation = offset to the parent),

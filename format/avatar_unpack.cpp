@@ -152,6 +152,12 @@ class AvatarReader {
       fail(where_, "body mesh: " + std::to_string(m_.faces.size() / 3) + " faces, the file says " + std::to_string(F_));
     }
     if (Vg_ < V_) fail(where_, "body mesh: fewer glTF vertices than body vertices");
+    if (const Json* g = find_member(jb, "garment")) {  // informative: the mesh stays one
+      const std::string G = B + ".garment";
+      info_.garment_first_vertex = int(rd_.integer(*g, "firstVertex", G, 1, V_ - 1));
+      info_.garment_first_face = int(rd_.integer(*g, "firstFace", G, 1, F_ - 1));
+      info_.garment_gaussians = int(rd_.integer(*g, "gaussians", G, 0, kMaxCount));
+    }
 
     BodyModel& body = a_.body;
     body.source = where_;

@@ -37,6 +37,9 @@ struct AvatarFileInfo {
   int version = 0;
   PackedSizes sizes;  // bytes per part, counts
   int body_vertex_count = 0;
+  // body.garment: the garment's part of the mesh (from these vertex / face indices on) and
+  // the Gaussians bound to its faces; -1 when the file has none.
+  int garment_first_vertex = -1, garment_first_face = -1, garment_gaussians = -1;
   int joint_regressor_nonzeros = 0;
   std::map<std::string, int> gaussian_bits;  // 0 = raw float32
   std::map<std::string, int> mesh_bits;

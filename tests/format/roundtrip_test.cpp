@@ -539,3 +539,46 @@ TEST(FormatRoundTrip, RestDisplacementReposesAsTheTrainerDoes) {
 
 }  // namespace
 }  // namespace haha
+
+namespace haha {
+namespace {
+
+// A body with a garment appended (body/garment.h): every pack stores it as part of the one
+// mesh and says where it starts and how many Gaussians it carries; the lossless pack reposes
+// it as the trainer's LBS does (the garment's own weights, no correctives), the default and
+// plain packs within their quantization.
+TEST(FormatRoundTrip, GarmentIsPartOfTheMeshAndReposesAsTheTrainerDoes) {
+  const Avatar a = test::with_test_garment(test::without_degenerate_face(test::make_test_avatar(120)), 7);
+  const BodyModel& body = a.body;
+  ASSERT_TRUE(body.has_garment());
+  SmplxParams p;
+  std::mt19937 rng(9);
+  std::normal_distribution<float> n(0.0f, 0.4f);
+  for (float& x : p.pose) x = n(rng);
+  p.betas = a.betas, p.expression = a.expression;
+  std::vector<float> want(body.v_template.size());
+  Lbs<float>(body).forward(p, want.data(), nullptr, nullptr);
+  PackOptions lossless, lossy, plain;
+  lossless.lossless = true;
+  lossless.pose_correctives = PoseCorrectives::dense;
+  plain.mesh_compression = MeshCompression::none;
+  for (const PackOptions& opt : {lossless, lossy, plain}) {
+    const std::vector<uint8_t> glb = pack_avatar(a, opt);
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "garment.glb");
+    EXPECT_EQ(u.avatar.body.num_verts, body.num_verts);
+    EXPECT_EQ(u.avatar.body.num_faces, body.num_faces);
+    EXPECT_EQ(u.info.garment_first_vertex, body.garment_first_vert);
+    EXPECT_EQ(u.info.garment_first_face, body.garment_first_face);
+    EXPECT_EQ(u.info.garment_gaussians, 7);
+    const AvatarLoader loader(u.avatar);
+    PosedAvatar posed;
+    loader.repose(p, posed);
+    float worst = 0;
+    for (size_t i = 3 * size_t(body.garment_first_vert); i < want.size(); ++i)
+      worst = std::max(worst, std::fabs(posed.verts[i] - want[i]));
+    EXPECT_LT(worst, opt.lossless ? 2e-5f : 2e-3f) << "m, the garment's posed vertices";
+  }
+}
+
+}  // namespace
+}  // namespace haha

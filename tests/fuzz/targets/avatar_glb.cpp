@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 }
 
 // Small valid files: the default pack, lossless, webp, and (version 3) a plain mesh with
-// skinned splats, an edgebreaker mesh and a lossless pack of a displaced (clothed) body. The corpus also keeps seeds of older versions
+// skinned splats, an edgebreaker mesh, a lossless pack of a displaced (clothed) body and a body with a garment. The corpus also keeps seeds of older versions
 // written by earlier packers (seed0-4: versions 2).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   const haha::Avatar a = haha::test::make_test_avatar(40, 2, 8, 8);
@@ -33,4 +33,6 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   haha::Avatar clothed = a;  // a body with the clothed surface's rest displacement
   clothed.body.rest_offsets.assign(a.body.v_template.size(), 0.01f);
   haha::fuzz::write_seed(dir, "seed7_v3_clothed_lossless.glb", haha::pack_avatar(clothed, lossless));
+  const haha::Avatar garment = haha::test::with_test_garment(haha::test::without_degenerate_face(a));
+  haha::fuzz::write_seed(dir, "seed8_v3_garment.glb", haha::pack_avatar(garment, lossy));
 }
