@@ -77,7 +77,7 @@ std::string eval_report_json(const EvalReport& r) {
     row["storage_bytes"] = v.storage_bytes;
     row["psnr"] = num(v.psnr);
     row["psnr_outline"] = num(v.psnr_outline);
-    if (!r.part.empty()) row["psnr_part"] = num(v.psnr_part);
+    if (!r.part.empty()) row["psnr_part"] = num(v.psnr_part), row["transmittance_part"] = num(v.transmittance_part);
     row["ssim"] = num(v.ssim);
     row["lpips"] = v.lpips >= 0 ? num(v.lpips) : ojson(nullptr);
     row["render_ms"] = num(v.render_ms);
@@ -89,7 +89,7 @@ std::string eval_report_json(const EvalReport& r) {
       o["frame"] = k < r.frame_names.size() ? r.frame_names[k] : std::to_string(k);
       o["psnr"] = num(f.psnr);
       o["psnr_outline"] = num(f.psnr_outline);
-      if (!r.part.empty()) o["psnr_part"] = num(f.psnr_part);
+      if (!r.part.empty()) o["psnr_part"] = num(f.psnr_part), o["transmittance_part"] = num(f.transmittance_part);
       o["ssim"] = num(f.ssim);
       o["lpips"] = f.lpips >= 0 ? num(f.lpips) : ojson(nullptr);
       o["render_ms"] = num(f.render_ms);
@@ -149,6 +149,9 @@ std::string eval_report_markdown(const EvalReport& r) {
   if (!r.part.empty()) {
     s += "\nPSNR over the " + r.part + "'s pixels (weighted by the dataset's part masks):";
     for (const VariantEval& v : r.variants) s += " " + v.name + " " + f2(v.psnr_part, "%.2f") + " dB;";
+    s.back() = '.';
+    s += "\nTransmittance over the " + r.part + "'s pixels (background showing through the render):";
+    for (const VariantEval& v : r.variants) s += " " + v.name + " " + f2(100 * v.transmittance_part, "%.2f") + "%;";
     s.back() = '.';
     s += "\n";
   }

@@ -141,7 +141,8 @@ EvalReport run_eval(const EvalRunOptions& o) {
     if (o.print_table) {
       const VariantEval& e = r.variants.back();
       std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians);
-      if (!o.part.empty()) std::printf("  %s PSNR %.2f", o.part.c_str(), e.psnr_part);
+      if (!o.part.empty())
+        std::printf("  %s PSNR %.2f, transmittance %.2f%%", o.part.c_str(), e.psnr_part, 100 * e.transmittance_part);
       std::printf("\n");
     }
   }

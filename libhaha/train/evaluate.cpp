@@ -51,6 +51,20 @@ int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
 
 namespace {
 
+// Mean of (1 - A)(1 - mesh coverage) weighted by `part` (P): how much background shows
+// through the rendered avatar there. NaN when the part has no weight.
+double part_transmittance(const AvatarRenderBuffers& buf, const float* part, int P) {
+  double num = 0, den = 0;
+  for (int q = 0; q < P; ++q) {
+    if (part[q] <= 0) continue;
+    const double a = buf.alpha.empty() ? 0.0 : double(buf.alpha[size_t(q)]);
+    const double m = buf.mesh.mask ? double(buf.mesh.mask[q]) : 0.0;
+    num += part[q] * (1 - a) * (1 - m);
+    den += part[q];
+  }
+  return den > 0 ? num / den : std::nan("");
+}
+
 // `steps` of test-time pose optimisation on frame f: the avatar frozen, the frame's pose and
 // transl move (loss L2 + w (1 - SSIM) + w Dice). Returns the pose of the lowest loss seen
 // (the start included); sets fe's loss at the start and that lowest loss.
@@ -178,8 +192,12 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
     const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);
     fe.psnr_outline = psnr(buf.image.data(), gt.data(), H, W, band.data());  // NaN without an outline
-    if (f.part.size() == size_t(P)) fe.psnr_part = psnr(buf.image.data(), gt.data(), H, W, f.part.data());
-    else if (!f.part.empty()) fail(f.name, "part weights do not match the camera");
+    if (f.part.size() == size_t(P)) {
+      fe.psnr_part = psnr(buf.image.data(), gt.data(), H, W, f.part.data());
+      fe.transmittance_part = part_transmittance(buf, f.part.data(), P);
+    } else if (!f.part.empty()) {
+      fail(f.name, "part weights do not match the camera");
+    }
     if (opt.lpips) fe.lpips = opt.lpips->distance(buf.image.data(), gt.data(), H, W);
     if (int(fi) < opt.keep_images) {
       fe.image = buf.image;
@@ -195,11 +213,11 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   const double n = double(out.frames.size());
   out.psnr = out.ssim = out.render_ms = 0;
-  double lp = 0, outline = 0, part = 0;
+  double lp = 0, outline = 0, part = 0, daylight = 0;
   int with_outline = 0, with_part = 0;
   for (const FrameEval& fe : out.frames) {
     if (!std::isnan(fe.psnr_outline)) outline += fe.psnr_outline, ++with_outline;  // NaN: no outline
-    if (!std::isnan(fe.psnr_part)) part += fe.psnr_part, ++with_part;
+    if (!std::isnan(fe.psnr_part)) part += fe.psnr_part, daylight += fe.transmittance_part, ++with_part;
     out.psnr += fe.psnr / n;
     out.ssim += fe.ssim / n;
     out.render_ms += fe.render_ms / n;
@@ -208,6 +226,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   out.lpips = opt.lpips ? lp : -1;
   out.psnr_outline = with_outline > 0 ? outline / with_outline : std::nan("");
   out.psnr_part = with_part > 0 ? part / with_part : std::nan("");
+  out.transmittance_part = with_part > 0 ? daylight / with_part : std::nan("");
   return out;
 }
 

@@ -61,6 +61,9 @@ struct FrameEval {
   double psnr = 0, ssim = 0, lpips = -1;  // lpips < 0: unavailable
   double psnr_outline = 0;                // PSNR within kOutlineBandPx of the person's outline
   double psnr_part = std::nan("");        // PSNR weighted by TrainFrame::part (NaN: none, or empty)
+  // Mean transmittance of the render (1 - A)(1 - mesh coverage) weighted by the part: the
+  // daylight through it (a garment between the legs; NaN: no part)
+  double transmittance_part = std::nan("");
   double render_ms = 0;                   // LBS + render of the final pose
   double tto_loss_start = 0, tto_loss_end = 0;
   // Kept for the first keep_images frames: (H, W, 3) images.
@@ -76,6 +79,7 @@ struct VariantEval {
   double psnr = 0, ssim = 0, lpips = -1, render_ms = 0;  // means over frames
   double psnr_outline = 0;  // mean over the frames that have an outline (NaN: none has)
   double psnr_part = 0;     // mean over the frames whose part has pixels (NaN: none has)
+  double transmittance_part = 0;  // the same frames' mean transmittance over the part
   std::vector<FrameEval> frames;
 };
 

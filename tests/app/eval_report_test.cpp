@@ -110,6 +110,9 @@ TEST(EvalReport, APartsPsnrIsReportedOnlyWhenAsked) {
   EXPECT_TRUE(j["variants"][0]["psnr_part"].is_null());
   EXPECT_NE(eval_report_markdown(r).find("PSNR over the garment's pixels"), std::string::npos);
   EXPECT_NE(eval_report_markdown(r).find("HAHA filtered 21.25 dB."), std::string::npos);
+  r.variants[3].transmittance_part = 0.005;
+  EXPECT_NE(eval_report_markdown(r).find("HAHA filtered 0.50%."), std::string::npos);
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(eval_report_json(r))["variants"][3]["transmittance_part"].get<double>(), 0.005);
 }
 
 class EvalReportFiles : public testutil::TempDirTest {};

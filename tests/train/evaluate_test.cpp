@@ -55,6 +55,14 @@ TEST(Evaluate, PartPsnrIsOverThePartsPixelsOnly) {
   ASSERT_TRUE(std::isfinite(person.psnr_part));
   EXPECT_LT(person.psnr_part, person.psnr - 1.0);
   EXPECT_TRUE(std::isfinite(person.frames[1].psnr_part));
+  // Transmittance: the person's pixels are covered but for the missing hair's, the
+  // background's not at all.
+  EXPECT_LT(person.transmittance_part, 0.25);
+  EXPECT_GE(person.transmittance_part, 0.0);
+  std::vector<TrainFrame> g = f;
+  for (TrainFrame& x : g)
+    for (float& m : x.part) m = 1 - m;
+  EXPECT_GT(evaluate_variant(mesh, g, o).transmittance_part, 0.95);
   // A frame without the part's pixels does not count in the mean.
   f[1].part.assign(f[1].part.size(), 0.0f);
   const VariantEval one = evaluate_variant(mesh, f, o);
