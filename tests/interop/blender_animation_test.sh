@@ -3,14 +3,17 @@
 # plays a plain pack's animation (`haha pack --mesh-compression none --no-pose-correctives
 # --animation`, a 40-frame wave at 30 fps) as an Action on the skinned body, vertex for vertex
 # where the haha runtime puts it (tests/interop/blender_animation.py).
-#   blender_animation_test.sh HAHA WORKDIR PYTHON_DIR [RUN]   (PYTHON_DIR: build/python, the
-#   `haha` package; RUN: a trained run to pack instead of training the tiny one)
+# The HAHA add-on imports the same file's animation as an Action that plays the same motion.
+#   blender_animation_test.sh HAHA WORKDIR PYTHON_DIR ADDONS [RUN]   (PYTHON_DIR: build/python,
+#   the `haha` package; ADDONS: build/python/blender/addons; RUN: a trained run to pack instead
+#   of training the tiny one)
 # Exits 77 with the reason printed when Blender or its numpy is missing.
 set -euo pipefail
 haha="$1"
 work="$2"
 python_dir="$3"
-run="${4:-}"
+addons="$4"
+run="${5:-}"
 root=$(cd "$(dirname "$0")/../.." && pwd)
 source "$root/tests/support/blender_test_setup.sh"
 blender_setup blender_animation "$work"
@@ -22,4 +25,4 @@ else
   tiny_avatar "$haha" "$work" "$work/anim.glb" "${pack[@]}"
 fi
 exec "$blender" -b --factory-startup --python-exit-code 1 --python "$root/tests/interop/blender_animation.py" -- \
-  "$work/anim.glb" "$python_dir"
+  "$work/anim.glb" "$python_dir" "$addons"
