@@ -110,12 +110,26 @@ double span_error(const Track& t, size_t a, size_t b, const std::vector<float>& 
 
 // The frames to store: greedily, each kept frame is followed by the farthest frame (at most
 // kMaxSpan frames on) whose interpolation with it reproduces every frame in between within
-// `tolerance`; the first and the last frames are always kept. tolerance 0 keeps every frame.
+// `tolerance`; the first and the last frames are always kept. tolerance 0 keeps every frame
+// of a track that moves (a still one keeps its first and last).
 constexpr size_t kMaxSpan = 256;  // bounds the work on long, nearly still tracks
+
+// True when every stored frame equals the first (bit for bit).
+bool constant(const Track& t) {
+  const size_t n = t.translation ? 3 : 4;
+  for (size_t k = 1; k < t.frames(); ++k)
+    for (size_t c = 0; c < n; ++c)
+      if (t.translation ? t.floats[k * n + c] != t.floats[c] : t.codes[k * n + c] != t.codes[c]) return false;
+  return true;
+}
 
 void reduce(Track& t, double tolerance, const std::vector<float>& times) {
   const size_t K = t.frames();
   t.kept = {0};
+  if (K > 1 && constant(t)) {  // held still: the first and the last key, whatever the tolerance
+    t.kept.push_back(uint32_t(K - 1));
+    return;
+  }
   for (size_t a = 0; a + 1 < K;) {
     size_t b = a + 1;
     while (tolerance > 0 && b + 1 < K && b + 1 - a <= kMaxSpan && span_error(t, a, b + 1, times) <= tolerance) ++b;

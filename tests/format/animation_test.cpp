@@ -114,14 +114,17 @@ TEST(FormatAnimation, ReducedKeysStayWithinTheTolerance) {
     std::printf("%d bits, tolerance %.0e rad: %zu of %zu keys kept, %zu inputs, worst rotation error %.3g rad, translation %.3g m\n",
                 bits, tol, keys, a.tracks.size() * 300, inputs.size(), angle, move);
   }
-  // A still motion: every track keeps its first and last frames, so the clip keeps its length
-  // (and one key every 256 frames, the reduction's longest span).
+  // A still motion: every track keeps its first and last frames (only), so the clip keeps its
+  // length; so does a still track with every key asked for.
   Motion still = m;
   for (SmplxParams& f : still.frames) f = m.frames[0];
   const std::vector<uint8_t> glb = pack_with(still, 16, 1e-3);
   const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
   EXPECT_NEAR(u.animations[0].duration, 299 / 30.0, 1e-6);
-  for (const AnimationTrack& t : u.animations[0].tracks) EXPECT_EQ(t.times.size(), 3u);
+  for (const AnimationTrack& t : u.animations[0].tracks) EXPECT_EQ(t.times.size(), 2u);
+  const std::vector<uint8_t> every = pack_with(still, 16, 0.0);
+  const UnpackedAvatar ue = unpack_avatar(every.data(), every.size(), "mem.glb");
+  for (const AnimationTrack& t : ue.animations[0].tracks) EXPECT_EQ(t.times.size(), 2u);
   PackOptions bad;
   bad.animations.push_back({"walk", m, -1.0});
   EXPECT_THROW(pack_avatar(test::make_test_avatar(40, 2, 8, 8), bad), Error);
