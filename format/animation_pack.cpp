@@ -157,6 +157,39 @@ void check_motion(const AnimationSource& s) {
   }
 }
 
+// Where keyframe reduction pays. Tracks with the same kept frames share one input (4 B a key
+// time and ~120 B of JSON); a track keeping every frame shares the full input. Of "every track
+// reduced" and "each track kept whole where that is cheaper than its share of its own
+// input", keeps the smaller in bytes.
+void keep_reductions_that_pay(std::vector<Track>& tracks, int bits) {
+  if (tracks.empty()) return;
+  const size_t K = tracks[0].frames();
+  auto value_bytes = [&](const Track& t) -> size_t { return t.translation ? 12 : bits == 16 ? 8 : bits == 8 ? 4 : 16; };
+  auto input_bytes = [](size_t keys) { return 4 * keys + 120; };
+  std::map<std::vector<uint32_t>, size_t> sharing;
+  for (const Track& t : tracks) ++sharing[t.kept];
+  size_t all_reduced = 0;
+  for (const Track& t : tracks) all_reduced += t.kept.size() * value_bytes(t);
+  for (const auto& [kept, n] : sharing) all_reduced += input_bytes(kept.size());
+  std::vector<bool> full(tracks.size(), false);
+  std::set<std::vector<uint32_t>> inputs;
+  size_t mixed = input_bytes(K);
+  for (size_t i = 0; i < tracks.size(); ++i) {
+    const Track& t = tracks[i];
+    const size_t share = input_bytes(t.kept.size()) / sharing[t.kept];
+    full[i] = K * value_bytes(t) <= t.kept.size() * value_bytes(t) + share;
+    mixed += full[i] ? K * value_bytes(t) : t.kept.size() * value_bytes(t);
+    if (!full[i]) inputs.insert(t.kept);
+  }
+  for (const std::vector<uint32_t>& kept : inputs) mixed += input_bytes(kept.size());
+  if (all_reduced <= mixed) return;
+  for (size_t i = 0; i < tracks.size(); ++i) {
+    if (!full[i]) continue;
+    tracks[i].kept.resize(K);
+    for (size_t k = 0; k < K; ++k) tracks[i].kept[k] = uint32_t(k);
+  }
+}
+
 // The tracks of one motion: the root's translation unless it rests, the root's rotation
 // always (so every animation has a channel), every other joint's unless it rests; each
 // reduced to the frames it needs.
@@ -172,6 +205,7 @@ std::vector<Track> kept_tracks(const AnimationSource& s, const std::vector<doubl
   // A translation tolerance of `tolerance` metres: what the rotation tolerance moves a point
   // 1 m from the joint by (about the body's reach from the pelvis).
   for (Track& t : tracks) reduce(t, s.tolerance, times);
+  keep_reductions_that_pay(tracks, bits);
   return tracks;
 }
 
