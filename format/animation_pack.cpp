@@ -108,12 +108,6 @@ double span_error(const Track& t, size_t a, size_t b, const std::vector<float>& 
   return worst;
 }
 
-// The frames to store: greedily, each kept frame is followed by the farthest frame (at most
-// kMaxSpan frames on) whose interpolation with it reproduces every frame in between within
-// `tolerance`; the first and the last frames are always kept. tolerance 0 keeps every frame
-// of a track that moves (a still one keeps its first and last).
-constexpr size_t kMaxSpan = 256;  // bounds the work on long, nearly still tracks
-
 // True when every stored frame equals the first (bit for bit).
 bool constant(const Track& t) {
   const size_t n = t.translation ? 3 : 4;
@@ -122,6 +116,12 @@ bool constant(const Track& t) {
       if (t.translation ? t.floats[k * n + c] != t.floats[c] : t.codes[k * n + c] != t.codes[c]) return false;
   return true;
 }
+
+// The frames to store: greedily, each kept frame is followed by the farthest frame (at most
+// kMaxSpan frames on) whose interpolation with it reproduces every frame in between within
+// `tolerance`; the first and the last frames are always kept. tolerance 0 keeps every frame
+// of a track that moves (a still one keeps its first and last).
+constexpr size_t kMaxSpan = 256;  // bounds the work on long, nearly still tracks
 
 void reduce(Track& t, double tolerance, const std::vector<float>& times) {
   const size_t K = t.frames();
