@@ -17,12 +17,14 @@ namespace {
 std::vector<AnimationSource> animation_sources(const PackAnimations& p, const BodyModel& body) {
   if (p.names.size() > p.files.size()) fail("--animation-name", "more names than --animation files");
   if (p.rate < 0 || !std::isfinite(p.rate) || p.rate > 1000) fail("--animation-rate", "must be in (0, 1000] frames per second");
+  if (!(p.tolerance >= 0) || !std::isfinite(p.tolerance)) fail("--animation-tolerance", "must be a non-negative number of radians");
   std::vector<AnimationSource> out;
   for (size_t i = 0; i < p.files.size(); ++i) {
     AnimationSource s;
     s.name = i < p.names.size() ? p.names[i] : std::filesystem::path(p.files[i]).stem().string();
     s.motion = read_motion(p.files[i], &body);
     if (p.rate > 0) s.motion = resample_motion(s.motion, p.rate);
+    s.tolerance = p.tolerance;
     out.push_back(std::move(s));
   }
   return out;

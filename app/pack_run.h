@@ -15,6 +15,7 @@ struct PackAnimations {
   std::vector<std::string> files;  // motion .npz files (io/motion.h), one animation each
   std::vector<std::string> names;  // names of the first files (default: the file's stem)
   double rate = 0;                 // resample every motion to this rate (0: keep its own)
+  double tolerance = kDefaultAnimationTolerance;  // keyframe reduction, radians (0: every key)
 };
 
 // `model` empty: config.json's "model" (a run directory); an avatar.npz given directly needs

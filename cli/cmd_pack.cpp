@@ -64,6 +64,10 @@ HAHA_COMMAND(pack) {
       ->take_all()
       ->allow_extra_args(false);
   sub->add_option("--animation-rate", o->animations.rate, "resample the animations to this many frames per second (default: the motion's rate)");
+  sub->add_option("--animation-tolerance", o->animations.tolerance,
+                  "keyframe reduction: drop keys that linear interpolation of the kept ones reproduces within this many "
+                  "radians (root translation: metres); 0 keeps every key")
+      ->capture_default_str();
   sub->add_option("--animation-bits", o->animation_bits,
                   "bits per stored rotation component: 16 (normalized short), 8 (normalized byte) or 0 (float32)")
       ->capture_default_str();

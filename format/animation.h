@@ -28,7 +28,7 @@ struct AnimationTrack {
 struct AvatarAnimation {
   std::string name;
   double duration = 0;   // seconds: the last key of any track
-  int frames = 0;        // keys of its longest track (the rate it was written at)
+  int frames = 0;        // frames sampled at the packer's rate (extras.fps), else keys of its longest track
   size_t bytes = 0;      // bytes of its bufferViews in the file
   std::vector<AnimationTrack> tracks;  // at most one per (joint, kind); untracked joints rest
 };

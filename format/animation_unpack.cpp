@@ -154,6 +154,14 @@ AvatarAnimation read_one(const glb::Glb& g, const Json& anim, size_t i, const Sk
     a.frames = std::max(a.frames, int(tr.times.size()));
     a.tracks.push_back(std::move(tr));
   }
+  // The rate the packer sampled at (`extras.fps`): its reduced tracks' keys do not say it.
+  // Without it (or with a value out of range) the longest track's keys give the frames.
+  if (const Json* ex = glb::find_member(anim, "extras"); ex && ex->is_object() && a.duration > 0) {
+    if (const Json* fps = glb::find_member(*ex, "fps"); fps && fps->is_number()) {
+      const double f = fps->get<double>(), n = std::round(a.duration * f);
+      if (f > 0 && f <= 1000 && n < 1e8) a.frames = std::max(a.frames, int(n) + 1);
+    }
+  }
   for (const Json& s : glb::member(anim, "samplers", where, what))
     for (const char* key : {"input", "output"})
       if (const Json* k = glb::find_member(s, key))

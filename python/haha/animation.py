@@ -8,7 +8,7 @@ from ._library import call
 from .errors import ArgumentError
 
 Animation = collections.namedtuple("Animation", "index name duration frames fps")
-Animation.__doc__ = """One animation: its index, name, duration (s), frames (keys of its longest track), fps."""
+Animation.__doc__ = """One animation: its index, name, duration (s), frames (at the rate it was packed at), fps."""
 
 
 def list_animations(handle):

@@ -1,7 +1,8 @@
 // What a 10 s, 30 fps animation adds to a .glb with the default quantization (16-bit
 // rotations): haha's own motions (`haha motion --kind ...`) stay within 60 KB, and the
 // added bytes follow from what is stored (the moving tracks' keys and the JSON that
-// describes them), so a motion moving every body joint is measured and printed too.
+// describes them), so a motion moving every body joint is measured and printed too, with
+// the default keyframe reduction (format/animation_pack.h) and with every key kept.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -17,10 +18,10 @@ namespace {
 constexpr int kFrames = 300;  // 10 s
 constexpr double kFps = 30;
 
-size_t added_bytes(const Motion& m, int bits = kDefaultAnimationRotationBits) {
+size_t added_bytes(const Motion& m, int bits = kDefaultAnimationRotationBits, double tolerance = kDefaultAnimationTolerance) {
   const Avatar a = test::make_test_avatar(40, 2, 8, 8);
   PackOptions with;
-  with.animations.push_back({"clip", m});
+  with.animations.push_back({"clip", m, tolerance});
   with.animation_bits = bits;
   return pack_avatar(a, with).size() - pack_avatar(a, PackOptions{}).size();
 }
@@ -41,9 +42,10 @@ Motion demo(const std::string& kind) {
 
 TEST(AnimationBudget, HahasOwnMotionsAddAtMostSixtyKilobytes) {
   for (const char* kind : {"walk", "wave", "turn"}) {
-    const size_t b = added_bytes(demo(kind));
-    std::printf("%s, 10 s at 30 fps: %zu B added\n", kind, b);
+    const size_t b = added_bytes(demo(kind)), every = added_bytes(demo(kind), 16, 0.0);
+    std::printf("%s, 10 s at 30 fps: %zu B added (%zu B keeping every key)\n", kind, b, every);
     EXPECT_LE(b, 60000u) << kind;
+    EXPECT_LE(b, every) << kind << ": the reduction must not cost bytes";
   }
 }
 
@@ -57,14 +59,36 @@ TEST(AnimationBudget, EveryBodyJointMovingCostsItsKeys) {
     p.transl = {float(0.01 * k), 0.0f, 0.0f};
     m.frames.push_back(p);
   }
-  const size_t b16 = added_bytes(m), b8 = added_bytes(m, 8);
-  std::printf("all 22 body joints + root translation, 10 s at 30 fps: %zu B added (16-bit), %zu B (8-bit)\n", b16, b8);
-  // Binary: 22 rotation tracks x 300 keys x 4 components, 300 translations, 300 key times
-  // and the one-key time (the still joints rest: no track); what is left is the JSON.
-  const size_t keys16 = 22 * kFrames * 8 + kFrames * 12 + kFrames * 4 + 4;
-  EXPECT_GE(b16, keys16);
-  EXPECT_LE(b16 - keys16, 12000u) << "JSON per track grew";
+  const size_t b16 = added_bytes(m), b8 = added_bytes(m, 8), every16 = added_bytes(m, 16, 0.0);
+  std::printf("all 22 body joints + root translation, 10 s at 30 fps: %zu B added (16-bit, default tolerance), "
+              "%zu B (8-bit), %zu B (16-bit, every key)\n", b16, b8, every16);
+  EXPECT_LE(b16, 60000u) << "the budget with the default quantization and keyframe reduction";
+  // Every key kept (tolerance 0). Binary: 22 rotation tracks x 300 keys x 4 components, 300
+  // translations, 300 shared key times (the still joints rest: no track); what is left is the JSON.
+  const size_t keys16 = 22 * kFrames * 8 + kFrames * 12 + kFrames * 4;
+  EXPECT_GE(every16, keys16);
+  EXPECT_LE(every16 - keys16, 12000u) << "JSON per track grew";
+  EXPECT_LT(b16, every16) << "the reduction dropped nothing";
   EXPECT_LT(b8, b16);
+}
+
+// A jittery motion (every joint off by up to 1.5e-3 rad at random each frame, as a raw per-frame
+// fit can be): the reduction keeps most keys, each track different ones, and then must keep the shared full input
+// instead of paying key times per track.
+TEST(AnimationBudget, JitterCostsNoMoreThanEveryKey) {
+  Motion m;
+  m.fps = kFps;
+  uint32_t state = 12345;
+  auto noise = [&] { state = state * 1664525u + 1013904223u; return (state >> 8) / double(1 << 24) - 0.5; };
+  for (int k = 0; k < kFrames; ++k) {
+    SmplxParams p;
+    for (int j = 0; j <= 21; ++j)
+      for (int c = 0; c < 3; ++c) p.pose[size_t(3 * j + c)] = float(0.3 * std::sin(0.5 * k / kFps + j) + 0.003 * noise());
+    m.frames.push_back(p);
+  }
+  const size_t b = added_bytes(m), every = added_bytes(m, 16, 0.0);
+  std::printf("jittery motion, 22 joints, 10 s at 30 fps: %zu B added (%zu B keeping every key)\n", b, every);
+  EXPECT_LE(b, every);
 }
 
 }  // namespace

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
 #include <functional>
 
 #include "body/rotation.h"
@@ -43,9 +46,9 @@ double rotation_angle(const float* a, const float* b) {
   return 2 * std::acos(std::min(1.0, d));
 }
 
-std::vector<uint8_t> pack_with(const Motion& m, int bits, const std::string& name = "walk") {
+std::vector<uint8_t> pack_with(const Motion& m, int bits, double tolerance = 0, const std::string& name = "walk") {
   PackOptions o;
-  o.animations.push_back({name, m});
+  o.animations.push_back({name, m, tolerance});
   o.animation_bits = bits;
   return pack_avatar(test::make_test_avatar(40, 2, 8, 8), o);
 }
@@ -78,12 +81,62 @@ TEST(FormatAnimation, RoundTripIsWithinTheQuantizationBound) {
   }
 }
 
+// Keyframe reduction: every frame of the motion plays back within the tolerance plus the
+// quantization bound (rotations) or the tolerance in metres (translation); smooth tracks keep
+// fewer keys than frames, each track ends on the last frame (the clip's length is the
+// largest input), tracks with the same kept frames share one input, and the file says the rate.
+TEST(FormatAnimation, ReducedKeysStayWithinTheTolerance) {
+  const Motion m = test_motion(300, 30);
+  for (auto [tol, bits] : {std::pair{1e-3, 16}, {1e-2, 16}, {1e-3, 8}}) {
+    const std::vector<uint8_t> glb = pack_with(m, bits, tol);
+    const auto [angle, move] = worst_error(glb, m);
+    // The reduction's error on the motion plus the quantization's at the kept keys.
+    const double bound = tol + 4 * animation_component_error(bits) + 2e-6;
+    EXPECT_LE(angle, bound) << tol << " rad, " << bits << " bits";
+    EXPECT_LE(move, tol + 2e-6) << tol;
+    const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+    const AvatarAnimation& a = u.animations[0];
+    EXPECT_EQ(a.frames, 300);
+    EXPECT_NEAR(animation_rate(a), 30.0, 1e-3);
+    size_t keys = 0;
+    for (const AnimationTrack& t : a.tracks) {
+      keys += t.times.size();
+      EXPECT_EQ(t.times.front(), 0.0f);
+      EXPECT_NEAR(t.times.back(), 299 / 30.0, 1e-6) << "joint " << t.joint;
+    }
+    EXPECT_LT(keys, a.tracks.size() * 300) << "nothing was dropped";
+    const glb::Glb g = glb::parse_glb(glb.data(), glb.size(), "mem.glb");
+    std::map<int, size_t> inputs;  // input accessor -> its key count
+    std::set<std::vector<float>> key_sets;
+    for (const AnimationTrack& t : a.tracks) key_sets.insert(t.times);
+    for (const auto& s : g.json["animations"][0]["samplers"]) inputs[s["input"].get<int>()] = 0;
+    EXPECT_EQ(inputs.size(), key_sets.size()) << "tracks with the same keys share one input";
+    std::printf("%d bits, tolerance %.0e rad: %zu of %zu keys kept, %zu inputs, worst rotation error %.3g rad, translation %.3g m\n",
+                bits, tol, keys, a.tracks.size() * 300, inputs.size(), angle, move);
+  }
+  // A still motion: every track keeps its first and last frames (only), so the clip keeps its
+  // length; so does a still track with every key asked for.
+  Motion still = m;
+  for (SmplxParams& f : still.frames) f = m.frames[0];
+  const std::vector<uint8_t> glb = pack_with(still, 16, 1e-3);
+  const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
+  EXPECT_NEAR(u.animations[0].duration, 299 / 30.0, 1e-6);
+  for (const AnimationTrack& t : u.animations[0].tracks) EXPECT_EQ(t.times.size(), 2u);
+  const std::vector<uint8_t> every = pack_with(still, 16, 0.0);
+  const UnpackedAvatar ue = unpack_avatar(every.data(), every.size(), "mem.glb");
+  for (const AnimationTrack& t : ue.animations[0].tracks) EXPECT_EQ(t.times.size(), 2u);
+  PackOptions bad;
+  bad.animations.push_back({"walk", m, -1.0});
+  EXPECT_THROW(pack_avatar(test::make_test_avatar(40, 2, 8, 8), bad), Error);
+}
+
 TEST(FormatAnimation, SamplesBetweenKeysLikeTheMotionsResampler) {
   const Motion m = test_motion(31, 30);
   const std::vector<uint8_t> glb = pack_with(m, 0);
   const UnpackedAvatar u = unpack_avatar(glb.data(), glb.size(), "mem.glb");
   const AvatarAnimation& a = u.animations[0];
   EXPECT_EQ(a.name, "walk");
+  EXPECT_EQ(a.tracks[0].times.size(), 31u);  // tolerance 0: every key
   EXPECT_EQ(a.frames, 31);
   EXPECT_NEAR(a.duration, 1.0, 1e-6);
   EXPECT_NEAR(animation_rate(a), 30.0, 1e-4);
@@ -134,10 +187,12 @@ TEST(FormatAnimation, InfoListsNamesFramesAndBytes) {
 
 // The packed file with its JSON changed by `edit`; unpacking it must fail naming the file
 // and the animation.
-void expect_rejected(const std::function<void(glb::Json&)>& edit, const std::string& needle) {
-  const std::vector<uint8_t> good = pack_with(test_motion(8, 30), 16);
+void expect_rejected(const std::function<void(glb::Json&)>& edit, const std::string& needle,
+                     const std::function<void(glb::Glb&)>& edit_bin = nullptr) {
+  const std::vector<uint8_t> good = pack_with(test_motion(8, 30), 16, kDefaultAnimationTolerance);
   glb::Glb g = glb::parse_glb(good.data(), good.size(), "good.glb");
   edit(g.json);
+  if (edit_bin) edit_bin(g);
   const std::vector<uint8_t> bad = glb::write_glb(g.json, g.bin);
   try {
     unpack_avatar(bad.data(), bad.size(), "bad.glb");
@@ -163,10 +218,12 @@ TEST(FormatAnimation, MalformedAnimationsAreRejectedWithAMessage) {
     const int out = sampler(j)["output"].get<int>();
     j["accessors"][size_t(out)]["count"] = 1000000;
   }, "animations[0]");
-  expect_rejected([&](J& j) {  // times out of order
-    const int in = sampler(j)["input"].get<int>();
-    j["accessors"][size_t(in)]["byteOffset"] = 4;  // shifted by a key: the last "time" is the one-key 0
-  }, "increasing");
+  expect_rejected([](J&) {}, "increasing", [&](glb::Glb& g) {  // the second key time of sampler 1 set to the first
+    const J& acc = g.json["accessors"][size_t(sampler(g.json)["input"].get<int>())];
+    const size_t at = g.json["bufferViews"][size_t(acc["bufferView"].get<int>())].value("byteOffset", size_t(0)) +
+                      acc.value("byteOffset", size_t(0));
+    std::memcpy(&g.bin[at + 4], &g.bin[at], 4);
+  });
 }
 
 TEST(FormatAnimation, LoaderPlaysTheFilesAnimation) {
@@ -174,7 +231,7 @@ TEST(FormatAnimation, LoaderPlaysTheFilesAnimation) {
   const std::string path = testing::TempDir() + "/haha-animation-test.glb";
   {
     PackOptions o;
-    o.animations.push_back({"walk", m});
+    o.animations.push_back({"walk", m, 0.0});
     write_avatar_glb(test::make_test_avatar(40, 2, 8, 8), path, o);
   }
   const AvatarLoader loader = AvatarLoader::load(path);

@@ -111,8 +111,9 @@ TEST(FormatInterop, KhrGaussianSplattingPrimitiveHoldsTheRestPoseGaussians) {
 }
 
 // tinygltf reads the animations as a viewer would: one per motion, a rotation channel per
-// moving joint node with normalized short (x, y, z, w) keys at k / fps, the root's
-// translation J0 + transl.
+// moving joint node with normalized short (x, y, z, w) keys at k / fps (every key with
+// tolerance 0), the root's translation J0 + transl; with the default keyframe reduction each
+// channel's input still runs from 0 to the last frame's time.
 TEST(FormatInterop, TinyGltfReadsTheAnimations) {
   const Avatar a = test::make_test_avatar(20, 2, 8, 8);
   Motion m;
@@ -125,7 +126,7 @@ TEST(FormatInterop, TinyGltfReadsTheAnimations) {
   }
   PackOptions opt;
   opt.texture_codec = TextureCodec::png;
-  opt.animations = {{"lower_arm", m}};
+  opt.animations = {{"lower_arm", m, 0.0}};
   const std::vector<uint8_t> bytes = pack_avatar(a, opt);
   tinygltf::TinyGLTF loader;
   tinygltf::Model g;
@@ -161,6 +162,18 @@ TEST(FormatInterop, TinyGltfReadsTheAnimations) {
     EXPECT_TRUE(ch.target_node == 0 || ch.target_path == "rotation");
   }
   EXPECT_TRUE(shoulder && root_move);
+  // Default reduction: the shoulder turns at a constant rate and the root moves in a line,
+  // so both keep only their first and last keys; every input ends at the clip's end.
+  opt.animations[0].tolerance = kDefaultAnimationTolerance;
+  const std::vector<uint8_t> reduced = pack_avatar(a, opt);
+  tinygltf::Model r;
+  ASSERT_TRUE(loader.LoadBinaryFromMemory(&r, &err, &warn, reduced.data(), unsigned(reduced.size()))) << err;
+  for (const tinygltf::AnimationChannel& ch : r.animations[0].channels) {
+    const std::vector<float> t = read_accessor<float>(r, r.animations[0].samplers[size_t(ch.sampler)].input, 1);
+    EXPECT_EQ(t.front(), 0.0f);
+    EXPECT_FLOAT_EQ(t.back(), float(9.0 / 25));
+    if (ch.target_node == 16 || ch.target_path == "translation") EXPECT_EQ(t.size(), 2u) << ch.target_node;
+  }
 }
 
 }  // namespace

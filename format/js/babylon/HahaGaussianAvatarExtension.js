@@ -4,7 +4,8 @@
 // exact triangle-bound maths of the haha loader (every skin influence, the embedded pose
 // correctives, face frames of the posed mesh: ../avatar.js) and splatted like `haha render`
 // (3DGS EWA, depth-sorted, hidden behind the body by the depth buffer: ../splat.js).
-// Animation groups or hand-set rotations (node.rotationQuaternion) of the joints move it.
+// Animation groups or hand-set rotations (node.rotationQuaternion) of the joints move it: the
+// file's own animations (`haha pack --animation`) are the loader's scene.animationGroups.
 //
 //   import { registerHahaGaussianAvatar } from './format/js/babylon/HahaGaussianAvatarExtension.js';
 //   BABYLON.DracoDecoder.DefaultConfiguration = { wasmUrl, wasmBinaryUrl, fallbackUrl };  // local files

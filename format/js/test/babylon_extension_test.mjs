@@ -7,7 +7,10 @@
 // motion frame and a raised arm (>= 30 dB), right- and left-handed scenes, the GPU-skinned
 // body (default) and exactBody; the raised arm's
 // Gaussian centres against the exact reposing and the faces Babylon skins, the pose set on the
-// joint nodes by hand and played by an AnimationGroup.
+// joint nodes by hand and played by an AnimationGroup; and the file's own glTF animation (haha
+// pack --animation), the AnimationGroup the glTF loader made, moved with goToFrame to the
+// clip's frame 30, against `haha render --animation 0` (>= 40 dB over all pixels; its frame 0
+// must score lower).
 // Usage: babylon_extension_test.mjs --haha PATH [--work DIR] [--run-from DIR] [--size 128] [--frame 3] [--keep]
 // Exit codes: 0 pass, 1 fail, 77 skip (no Chromium / node_modules).
 import { engineTest } from './common.mjs';

@@ -64,6 +64,18 @@ export default {
     group.pause();
     return group.targetedAnimations.length;
   },
+  // The file's own animation (scene.animationGroups[index], made by the glTF loader) moved
+  // with AnimationGroup.goToFrame to `seconds` (its frames are the loader's, not the file's).
+  playAnimation(index, seconds) {
+    this.setPose(new Array(165).fill(0), [0, 0, 0]);
+    for (const g of scene.animationGroups) g.stop();
+    const group = scene.animationGroups[index];
+    const fps = group.targetedAnimations[0].animation.framePerSecond;
+    group.start(false, 1, group.from, group.to);
+    group.pause();
+    group.goToFrame(seconds * fps);
+    return { name: group.name, duration: (group.to - group.from) / fps, tracks: group.targetedAnimations.length };
+  },
   render(cam, gaussians = true) {
     layer.mesh.setEnabled(gaussians);
     engine.setSize(cam.width, cam.height);

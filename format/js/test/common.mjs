@@ -312,6 +312,43 @@ export function raisedArmPose() {
   return { pose, transl: new Float64Array(3) };
 }
 
+// The avatar packed with a glTF animation (a 40-frame wave at 30 fps, `haha pack
+// --animation`, default keyframe reduction) and `haha render --animation 0`'s frame 30 of it,
+// at the camera of the motion test (cam.json in work).
+export const ANIMATION_FRAME = 30, ANIMATION_FPS = 30;
+export function animationReference(run, PNG, runDir, work, packArgs) {
+  const motion = `${work}/anim_motion.npz`, file = `${work}/avatar_anim.glb`, out = `${work}/ref_anim`;
+  run(['motion', '--kind', 'wave', '--frames', '40', '--fps', String(ANIMATION_FPS), '--out', motion]);
+  run(['pack', runDir, '--out', file, ...packArgs, '--animation', motion]);
+  fs.rmSync(out, { recursive: true, force: true });
+  run(['render', file, '--animation', '0', '--camera', `${work}/cam.json`, '--out', out, '--background', '0,0,0',
+    '--every', String(ANIMATION_FRAME), '--max-frames', '2']);
+  return { file, url: '/files/anim.glb', ref: readPng(PNG, `${out}/frame_00001.png`) };
+}
+
+// Loads the animated pack, plays its animation 0 through the engine's own animation system
+// (the page's playAnimation: three's AnimationMixer, Babylon's AnimationGroup.goToFrame) to
+// frame 30 and renders: PSNR against `haha render --animation 0` >= minPsnr.
+async function checkAnimation(page, PNG, spec, anim, cam, mode, loadOptions, minPsnr) {
+  const label = `animation${mode ? `, ${mode}` : ''}`;
+  await page.evaluate(([url, o]) => window.hahaTest.load(url, o), [anim.url, loadOptions]);
+  const t = ANIMATION_FRAME / ANIMATION_FPS;
+  const shoot = async (seconds) => {
+    const played = await page.evaluate((s) => window.hahaTest.playAnimation(0, s), seconds);
+    const r = await page.evaluate((c) => window.hahaTest.render(c, true), cam);
+    return { played, img: { width: cam.width, height: cam.height, rgb: decodeRgb(r.rgb) } };
+  };
+  // Control: the clip's first frame must be further from frame 30 than the played frame 30.
+  const first = psnr((await shoot(0)).img, anim.ref);
+  const { played, img } = await shoot(t);
+  const p = psnr(img, anim.ref);
+  writeStrip(PNG, `${path.dirname(anim.file)}/${spec.engine}${mode ? `_${mode}` : ''}_animation.png`, anim.ref, img);
+  console.log(`  ${label}: '${played.name}' (${played.tracks} tracks, ${played.duration.toFixed(3)} s) at ${t} s ` +
+              `(frame ${ANIMATION_FRAME}) vs haha render --animation 0: ${fmtPsnr(p)} (bar ${minPsnr} dB); ` +
+              `its frame 0: ${first.all.toFixed(2)} dB`);
+  return p.all >= minPsnr && first.all < p.all - 3;
+}
+
 // The browser test of one engine (spec: { test, engine, packages, modes: [[label, load
 // options], ...], mixer }; the first mode is the engine's default, run on every pack variant
 // and the only one whose Gaussian centres are checked; the others run on the last variant):
@@ -323,7 +360,7 @@ export function raisedArmPose() {
 //      Gaussian stays behind.
 export async function engineTest(spec) {
   const TEST = spec.test;
-  const opts = parseArgs({ 'min-psnr': '30', frame: '3', size: '128' }, ['keep']);
+  const opts = parseArgs({ 'min-psnr': '30', 'min-animation-psnr': '40', frame: '3', size: '128' }, ['keep']);
   const { chromium, PNG } = await requireBrowser(opts, TEST, spec.packages);
   if (!opts.haha) { console.error(`${TEST}: --haha PATH is required (the reference renderer)`); process.exit(1); }
   const work = workDir(opts, `haha-${TEST}-`);
@@ -351,7 +388,10 @@ export async function engineTest(spec) {
     refs[v.name] = { motion: readPng(PNG, `${out}/frame_00001.png`), arm: readPng(PNG, `${out}/arm/frame_00000.png`) };
   }
 
+  // 3. The file's own animation (haha pack --animation): a 40-frame wave at 30 fps, frame 30.
+  const anim = animationReference(run, PNG, runDir, work, variants[0].args);
   const files = Object.fromEntries(variants.map((v) => [`${v.name}.glb`, v.file]));
+  files['anim.glb'] = anim.file;
   const failed = await runOnTestPage({ chromium, opts, files, engine: spec.engine, consoleTypes: ['error', 'warning'] }, async ({ page, errors, fail }) => {
     for (const v of variants) {
       const ref = await loadAvatarNode(v.file);
@@ -404,6 +444,9 @@ export async function engineTest(spec) {
             decodeF64(rest.means), decodeF64(byMixer.centroids), decodeF64(rest.centroids), { exact: 1e-5, relative: 0.02 })) fail(`${label}: ${spec.mixer}`);
         }
       }
+    }
+    for (const [mode, loadOptions] of spec.modes) {
+      if (!(await checkAnimation(page, PNG, spec, anim, cam, mode, loadOptions, Number(opts['min-animation-psnr'])))) fail(`${mode || 'default'}: animation frame`);
     }
     if (errors.length) console.log(`browser messages:\n${errors.join('\n')}`);
     console.log(`images in ${work}; ${((Date.now() - t0) / 1000).toFixed(1)} s`);

@@ -39,6 +39,16 @@ export default {
     mixer.update(0);
     return tracks.length;
   },
+  // The file's own animation (gltf.animations[index], made by GLTFLoader) played by an
+  // AnimationMixer at `seconds`, from the rest pose.
+  playAnimation(index, seconds) {
+    poseBones(THREE, skinned.skeleton.bones, new Array(165).fill(0), [0, 0, 0], rest());
+    const clip = gltf.animations[index];
+    const mixer = new THREE.AnimationMixer(gltf.scene);
+    mixer.clipAction(clip).play();
+    mixer.setTime(seconds);
+    return { name: clip.name, duration: clip.duration, tracks: clip.tracks.length };
+  },
   render(cam, gaussians = true) {
     layer.visible = gaussians;
     renderer.setSize(cam.width, cam.height, false);

@@ -5,7 +5,9 @@
 // blend skinning with every influence and the embedded pose correctives, face frames of the
 // posed mesh; ../avatar.js) and splatted like `haha render` (3DGS EWA, sorted by depth, hidden
 // behind the mesh by the depth buffer; ../splat.js). Bones driven by an AnimationMixer or set
-// by hand (bone.quaternion) move the Gaussians with the body.
+// by hand (bone.quaternion) move the Gaussians with the body: the file's own animations
+// (gltf.animations, `haha pack --animation`) play with
+//   new THREE.AnimationMixer(gltf.scene).clipAction(gltf.animations[0]).play()  // + mixer.update(dt)
 //
 //   const draco = new DRACOLoader().setDecoderPath('/node_modules/three/examples/jsm/libs/draco/');
 //   const loader = new GLTFLoader().setDRACOLoader(draco);

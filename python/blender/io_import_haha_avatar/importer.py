@@ -1,14 +1,14 @@
 """File > Import > HAHA avatar (.glb): the armature, the body skinned by it and the Gaussian
 layer bound to the body, all decoded by libhaha_runtime.so through the `haha` package
-(Draco files included). Nothing runs in Python after the import: the Armature modifier and
-the geometry nodes do the posing."""
+(Draco files included), and the file's glTF animations as actions on the armature. Nothing
+runs in Python after the import: the Armature modifier and the geometry nodes do the posing."""
 import os
 import tempfile
 
 import bpy
 import numpy as np
 
-from . import face_binding, glb_skeleton, plain_skin, runtime_link, scene_build
+from . import face_binding, glb_skeleton, plain_skin, posing, runtime_link, scene_build
 
 
 def _settings(path):
@@ -46,7 +46,7 @@ def import_avatar(context, path, max_gaussians=0):
     count (the first always), as haha_avatar_load_lod does for a distant avatar."""
     haha = runtime_link.import_haha()
     path = os.path.abspath(bpy.path.abspath(path))
-    haha.Avatar(path)  # haha.FileError / haha.FormatError: "<file>: <problem>"
+    full = haha.Avatar(path)  # haha.FileError / haha.FormatError: "<file>: <problem>"
     skeleton = glb_skeleton.read_skeleton(path)
     plain = _plain_avatar(haha, path, max_gaussians)
     if len(skeleton) != plain.num_joints:
@@ -71,6 +71,7 @@ def import_avatar(context, path, max_gaussians=0):
         if context.scene.camera is not None:
             from .camera import use_camera
             use_camera(gaussians, context.scene.camera, context.scene)
+    posing.import_animations(full, arm, context.scene)  # the file's glTF animations, as actions
     set_color_management(context.scene)
     for o in context.view_layer.objects:
         o.select_set(False)

@@ -1,6 +1,9 @@
 """SMPL-X poses on the imported armature: a joint's axis-angle (avatar frame) is its bone's
 rotation B^T R B (B: the bone's rest axes), the root bone's location the translation
-B^T t. Used to pose from code and to turn a motion (.npz) into an ordinary action."""
+B^T t. Used to pose from code, to turn a motion (.npz) into an ordinary action, and to bring
+the file's own glTF animations in as actions."""
+import math
+
 import numpy as np
 from mathutils import Matrix, Quaternion, Vector
 
@@ -66,3 +69,23 @@ def apply_motion(arm, frames, name="HAHA motion", start=1):
             kp.interpolation = "LINEAR"
         fc.update()
     return action
+
+
+def import_animations(avatar, arm, scene):
+    """The file's glTF animations (`haha pack --animation`) as actions on `arm`, named like
+    them: each sampled by the runtime (`avatar`: a haha.Avatar; slerp between its keys, as
+    glTF viewers play it) at the scene's frame rate, keyed on every frame from
+    scene.frame_start. The first becomes the armature's action; every one keeps a fake user,
+    so the others stay in the file for the Action editor and the NLA. Returns the actions."""
+    fps = scene.render.fps / scene.render.fps_base
+    actions = []
+    for a in avatar.animations:
+        n = int(math.floor(a.duration * fps + 1e-6)) + 1
+        frames = [avatar.sample_animation(a.index, k / fps) for k in range(n)]
+        action = apply_motion(arm, frames, name=a.name, start=scene.frame_start)
+        action.use_fake_user = True
+        action["haha_animation"] = a.name
+        actions.append(action)
+    if actions:
+        arm.animation_data.action = actions[0]
+    return actions
