@@ -128,7 +128,7 @@ GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFra
   if (opt.mode != "auto" && opt.mode != "skirt" && opt.mode != "none")
     fail("s0.garment.mode", "must be auto, skirt or none, got '" + opt.mode + "'");
   if (opt.mode == "none" || frames.empty()) {
-    d.why = "s0.garment.mode=none: no garment";
+    d.why = frames.empty() ? "no garment: no frames to measure" : "no garment: s0.garment.mode=none";
     return d;
   }
   const std::vector<float> betas = video_betas(frames, body.num_shape);
