@@ -98,13 +98,11 @@ BodyModel fit_clothed_surface(const BodyModel& body, const std::vector<TrainFram
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   Stage0Config::Surface opt = cfg.s0.surface;
   opt.garment_max_out = cfg.s0.garment.max_out;
+  opt.garment_lr = cfg.s0.garment.lr;
+  opt.garment_lr_final = cfg.s0.garment.lr_final;
+  opt.garment_w_laplacian = cfg.s0.garment.w_laplacian;
   opt.garment_only = opt.steps <= 0;
-  if (opt.garment_only) {
-    opt.steps = cfg.s0.garment.steps;
-    opt.lr = cfg.s0.garment.lr;
-    opt.lr_final = cfg.s0.garment.lr_final;
-    opt.w_laplacian = cfg.s0.garment.w_laplacian;
-  }
+  if (opt.garment_only) opt.steps = cfg.s0.garment.steps;
   const char* what = opt.garment_only ? "garment" : "clothed surface";
   const SurfaceFitReport fit =
       fit_rest_surface(body, frames, premultiplied, opt, cfg.seed, [&](int done, int total, double loss) {

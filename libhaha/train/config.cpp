@@ -96,9 +96,9 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s0.garment.chart", K::Double, &gm.chart, "garment: share of the texture's width for its chart"});
   v.push_back({"s0.garment.max_out", K::Double, &gm.max_out, "garment: largest outward move in the fit (metres)"});
   v.push_back({"s0.garment.steps", K::Int, &gm.steps, "garment: fit steps when the clothed surface is off"});
-  v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of its own fit (metres)"});
-  v.push_back({"s0.garment.lr_final", K::Double, &gm.lr_final, "garment: displacement lr at the end of its own fit"});
-  v.push_back({"s0.garment.w.laplacian", K::Double, &gm.w_laplacian, "garment: smoothness weight of its own fit"});
+  v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of the fit (metres)"});
+  v.push_back({"s0.garment.lr_final", K::Double, &gm.lr_final, "garment: displacement lr at the end of the fit"});
+  v.push_back({"s0.garment.w.laplacian", K::Double, &gm.w_laplacian, "garment: smoothness weight in the fit"});
   Stage0Config::Surface& sf = s0.surface;
   v.push_back({"s0.surface.steps", K::Int, &sf.steps,
                "clothed surface: displacement of the rest body fitted before stage 1, steps in all (0 = off)"});

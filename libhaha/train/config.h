@@ -82,8 +82,10 @@ struct Stage0Config {
     double w_laplacian = 3e4;   // mean over vertices of (h - mean of the neighbours' h)^2, metres
     double w_shrink = 1;        // mean over vertices of h^2: what no view asks for stays on the body
     // A garment appended to the body (not keys: the run sets them from s0.garment): its
-    // vertices move in [0, garment_max_out]; garment_only holds the body's at 0.
+    // vertices move in [0, garment_max_out] at their own rates and smoothness (a flared hem
+    // moves far more than a body's displacement); garment_only holds the body's at 0.
     double garment_max_out = 0.2;
+    double garment_lr = 4e-3, garment_lr_final = 4e-4, garment_w_laplacian = 3e3;
     bool garment_only = false;
   } surface;
   // A garment around both legs (body/garment.h, train/garment_fit.h): detected from the
@@ -96,8 +98,8 @@ struct Stage0Config {
     double chart = 0.2;         // share of the texture's width for the garment's chart
     double max_out = 0.2;       // largest outward move of a garment vertex in the fit (metres)
     int steps = 400;            // the fit's steps when s0.surface.steps is 0 (the garment alone moves)
-    // ... and its rates and smoothness then (a flared hem moves ~10 cm from the loft it starts
-    // as, far more than a body's displacement; with s0.surface on, the surface's values hold)
+    // Its rates and smoothness in the fit, alone or beside the body's displacement (a flared
+    // hem moves ~10 cm from the loft it starts as, far more than a body's displacement)
     double lr = 4e-3, lr_final = 4e-4;
     double w_laplacian = 3e3;
   } garment;

@@ -145,6 +145,14 @@ void check_frames(const std::vector<TrainFrame>& frames) {
   }
 }
 
+// The adjacency of the garment's faces alone, over all vertices (the body's have none), so
+// its smoothness weight is its own.
+VertexAdjacency garment_adjacency(const BodyModel& body) {
+  if (!body.has_garment()) return vertex_adjacency(nullptr, 0, body.num_verts);
+  const int F0 = body.num_body_faces();
+  return vertex_adjacency(body.faces.data() + 3 * size_t(F0), body.num_faces - F0, body.num_verts);
+}
+
 bool all_finite(const std::vector<float>& v) {
   return std::all_of(v.begin(), v.end(), [](float x) { return std::isfinite(x); });
 }
@@ -157,7 +165,8 @@ class SurfaceFit {
              const Stage0Config::Surface& opt, uint64_t seed)
       : body_(body), frames_(frames), premultiplied_(premultiplied), opt_(opt), seed_(seed),
         neighbors_(mesh_face_neighbors(body.faces.data(), body.num_faces, body.num_verts)), topology_(topology_of(body)),
-        silhouette_(body), adj_(vertex_adjacency(body.faces.data(), body.num_faces, body.num_verts)),
+        silhouette_(body), adj_(vertex_adjacency(body.faces.data(), body.num_body_faces(), body.num_verts)),
+        garment_adj_(garment_adjacency(body)),
         upper_(outward_bounds(body, opt.max_out, opt.max_held)), lower_(size_t(body.num_verts), -float(opt.max_in)) {
     // A garment starts outside the body and only moves out; with garment_only the body stays.
     for (int v = 0; v < body.num_verts; ++v) {
@@ -171,7 +180,8 @@ class SurfaceFit {
     warmup_steps_ = int(std::lround(opt_.warmup * opt_.steps));
     const int V = body.num_verts;
     h_.assign(size_t(V), 0.0f);
-    h_adam_.add_group("h", V, opt_.lr);
+    h_adam_.add_group("h", body.num_body_verts(), opt_.lr);
+    if (body.has_garment()) h_adam_.add_group("h_garment", V - body.num_body_verts(), opt_.garment_lr);
     pose_frames(video_betas(frames, body.num_shape));
   }
 
@@ -190,13 +200,20 @@ class SurfaceFit {
     d_h_.assign(size_t(V), 0.0f);
     displace_posed_backward(dir_[size_t(fi)].data(), d_verts_.data(), V, d_h_.data());
     surface_regularizer(h_.data(), adj_, opt_.w_laplacian, opt_.w_shrink, d_h_.data());
+    if (body_.has_garment()) surface_regularizer(h_.data(), garment_adj_, opt_.garment_w_laplacian, 0.0, d_h_.data());
     if (!std::isfinite(loss) || !all_finite(d_texture_) || !all_finite(d_h_)) return NAN;
     tex_adam_.set_lr(0, LogLinearLr{opt_.lr_texture, opt_.lr_texture_final, opt_.steps}(s));
     tex_adam_.step(0, texture_.data(), d_texture_.data());
     for (float& t : texture_) t = std::clamp(t, 0.0f, 1.0f);
     if (move) {
-      h_adam_.set_lr(0, LogLinearLr{opt_.lr, opt_.lr_final, std::max(1, opt_.steps - warmup_steps_)}(s - warmup_steps_));
+      const int moving = std::max(1, opt_.steps - warmup_steps_);
+      h_adam_.set_lr(0, LogLinearLr{opt_.lr, opt_.lr_final, moving}(s - warmup_steps_));
       h_adam_.step(0, h_.data(), d_h_.data());
+      if (body_.has_garment()) {  // the garment's own group: the tail of h
+        const size_t b = size_t(body_.num_body_verts());
+        h_adam_.set_lr(1, LogLinearLr{opt_.garment_lr, opt_.garment_lr_final, moving}(s - warmup_steps_));
+        h_adam_.step(1, h_.data() + b, d_h_.data() + b);
+      }
       for (int v = 0; v < V; ++v) h_[size_t(v)] = std::clamp(h_[size_t(v)], lower_[size_t(v)], upper_[size_t(v)]);
     }
     return loss;
@@ -305,7 +322,7 @@ class SurfaceFit {
   std::vector<int32_t> neighbors_;
   BodyTopology topology_;
   BodySilhouette silhouette_;
-  VertexAdjacency adj_;
+  VertexAdjacency adj_, garment_adj_;  // the body's faces; the garment's (no neighbours elsewhere)
   std::vector<float> upper_, lower_, h_, d_h_, normals_;
   std::vector<std::vector<float>> base_, dir_;
   LevelSchedule schedule_;

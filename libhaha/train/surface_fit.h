@@ -18,7 +18,10 @@
 // and feet: the fits and the masks are least reliable there (fingers, shoes in shadow) and a
 // displacement would turn fingers into mittens; jaw and eyes: the face's shape drives its
 // expressions and its texture is the most looked at. The first `warmup` share of the steps
-// trains the texture alone. Measured: docs/results.md, "The clothed surface".
+// trains the texture alone. A garment appended to the body (body/garment.h) moves too, in
+// [0, garment_max_out] with its own Adam group (garment_lr) and smoothness over its own faces
+// (garment_w_laplacian); `garment_only` holds the body at 0. Measured: docs/results.md, "The
+// clothed surface" and "A garment around both legs".
 #pragma once
 
 #include <cstdint>

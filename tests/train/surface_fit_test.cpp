@@ -9,6 +9,7 @@
 #include <cmath>
 #include <random>
 
+#include "body/garment.h"
 #include "body/lbs.h"
 #include "core/error.h"
 #include "support/train_test_scene.h"
@@ -190,6 +191,34 @@ TEST(SurfaceFit, AClothedTorsoIsFound) {
   ASSERT_GT(n_torso, 0);
   EXPECT_GT(torso / n_torso, 0.03) << "m: the torso's mean displacement (truth 0.04)";
   EXPECT_LT(torso / n_torso, 0.05);
+}
+
+// A garment appended to the body moves only outward, within its own bound; garment_only
+// holds the body where it is.
+TEST(SurfaceFit, AGarmentMovesOutwardAloneWhenAsked) {
+  const BodyModel& bare = scene_body();
+  std::vector<float> rest(3 * size_t(bare.num_verts)), joints(3 * size_t(kNumJoints));
+  Lbs<float>(bare).forward(SmplxParams{}, rest.data(), joints.data(), nullptr);
+  GarmentShape shape;
+  shape.y_top = 0.5 * (joints[1] + joints[10]);
+  shape.y_hem = 0.5 * (joints[4] + joints[13]);  // to halfway down the thigh
+  shape.rings = 4;
+  shape.columns = 12;
+  const BodyModel b = append_garment(bare, build_garment(bare, rest, joints, shape));
+  Stage0Config::Surface opt = surface_config(80);
+  opt.garment_only = true;
+  opt.garment_max_out = 0.05;
+  const SurfaceFitReport r = fit_rest_surface(b, body_frames({}), true, opt, 0);
+  ASSERT_EQ(r.offsets.size(), size_t(b.num_verts) * 3);
+  for (int v = 0; v < b.num_body_verts(); ++v)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(r.offsets[3 * size_t(v) + c], 0.0f) << "body vertex " << v;
+  const std::vector<float> n = rest_normals(b);
+  for (int v = b.num_body_verts(); v < b.num_verts; ++v) {
+    double h = 0;
+    for (int c = 0; c < 3; ++c) h += double(r.offsets[3 * size_t(v) + c]) * n[3 * size_t(v) + c];
+    EXPECT_GE(h, -1e-6) << "garment vertex " << v << " moved inward";
+    EXPECT_LE(h, 0.05 + 1e-6) << "garment vertex " << v;
+  }
 }
 
 TEST(SurfaceFit, SameSeedSameBits) {
