@@ -40,6 +40,43 @@ int edit_distance(const std::string& a, const std::string& b) {
   return prev[b.size()];
 }
 
+// The garment's and the clothed surface's keys (stage 0, before the Gaussians).
+void add_garment_and_surface_entries(Stage0Config& s0, std::vector<ConfigEntry>& v) {
+  using K = ConfigEntry::Kind;
+  Stage0Config::Garment& gm = s0.garment;
+  v.push_back({"s0.garment.mode", K::String, &gm.mode,
+               "garment around both legs: auto (from the masks), skirt (always), none (never)"});
+  v.push_back({"s0.garment.fill", K::Double, &gm.fill, "garment: share of the between-legs pixels in the mask that means one"});
+  v.push_back({"s0.garment.max_frames", K::Int, &gm.max_frames, "garment: frames measured for the decision"});
+  v.push_back({"s0.garment.rings", K::Int, &gm.rings, "garment: rings from the waist to the hem"});
+  v.push_back({"s0.garment.columns", K::Int, &gm.columns, "garment: vertices around each ring"});
+  v.push_back({"s0.garment.chart", K::Double, &gm.chart, "garment: share of the texture's width for its chart"});
+  v.push_back({"s0.garment.max_out", K::Double, &gm.max_out, "garment: largest outward move in the fit (metres)"});
+  v.push_back({"s0.garment.steps", K::Int, &gm.steps, "garment: fit steps when the clothed surface is off"});
+  v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of the fit (metres)"});
+  v.push_back({"s0.garment.lr_final", K::Double, &gm.lr_final, "garment: displacement lr at the end of the fit"});
+  v.push_back({"s0.garment.w.laplacian", K::Double, &gm.w_laplacian, "garment: smoothness weight in the fit"});
+  Stage0Config::Surface& sf = s0.surface;
+  v.push_back({"s0.surface.steps", K::Int, &sf.steps,
+               "clothed surface: displacement of the rest body fitted before stage 1, steps in all (0 = off)"});
+  v.push_back({"s0.surface.resolution", K::Int, &sf.resolution, "clothed surface: longer image side (at most the training one)"});
+  v.push_back({"s0.surface.levels", K::String, &sf.levels, "clothed surface: image pyramid shares, coarsest first"});
+  v.push_back({"s0.surface.warmup", K::Double, &sf.warmup, "clothed surface: share of steps training the texture alone"});
+  v.push_back({"s0.surface.lr", K::Double, &sf.lr, "clothed surface: displacement lr at the start (metres)"});
+  v.push_back({"s0.surface.lr_final", K::Double, &sf.lr_final, "clothed surface: displacement lr at the end"});
+  v.push_back({"s0.surface.lr.texture", K::Double, &sf.lr_texture, "clothed surface: texture lr at the start"});
+  v.push_back({"s0.surface.lr.texture_final", K::Double, &sf.lr_texture_final, "clothed surface: texture lr at the end"});
+  v.push_back({"s0.surface.texture_size", K::Int, &sf.texture_size, "clothed surface: texture side at the finest level"});
+  v.push_back({"s0.surface.max_out", K::Double, &sf.max_out, "clothed surface: largest outward displacement (metres)"});
+  v.push_back({"s0.surface.max_held", K::Double, &sf.max_held,
+               "clothed surface: largest outward displacement of hands, feet, jaw and eyes (metres)"});
+  v.push_back({"s0.surface.max_in", K::Double, &sf.max_in, "clothed surface: largest inward displacement (metres)"});
+  v.push_back({"s0.surface.w.silhouette", K::Double, &sf.w_silhouette, "clothed surface: weight of the mask mismatch"});
+  v.push_back({"s0.surface.w.photo", K::Double, &sf.w_photo, "clothed surface: weight of the colour error"});
+  v.push_back({"s0.surface.w.laplacian", K::Double, &sf.w_laplacian, "clothed surface: weight of the smoothness"});
+  v.push_back({"s0.surface.w.shrink", K::Double, &sf.w_shrink, "clothed surface: weight of the pull back to the body"});
+}
+
 }  // namespace
 
 std::vector<ConfigEntry> config_entries(TrainConfig& c) {
@@ -86,38 +123,7 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
                "photometric pose fit: weight of the squared change of the pose from its anchor"});
   v.push_back({"s0.photo.w.ssim", K::Double, &ph.w_ssim, "photometric pose fit: weight of 1 - SSIM beside the L2"});
   v.push_back({"s0.photo.w.sobel", K::Double, &ph.w_sobel, "photometric pose fit: weight of the edge loss beside the L2"});
-  Stage0Config::Garment& gm = s0.garment;
-  v.push_back({"s0.garment.mode", K::String, &gm.mode,
-               "garment around both legs: auto (from the masks), skirt (always), none (never)"});
-  v.push_back({"s0.garment.fill", K::Double, &gm.fill, "garment: share of the between-legs pixels in the mask that means one"});
-  v.push_back({"s0.garment.max_frames", K::Int, &gm.max_frames, "garment: frames measured for the decision"});
-  v.push_back({"s0.garment.rings", K::Int, &gm.rings, "garment: rings from the waist to the hem"});
-  v.push_back({"s0.garment.columns", K::Int, &gm.columns, "garment: vertices around each ring"});
-  v.push_back({"s0.garment.chart", K::Double, &gm.chart, "garment: share of the texture's width for its chart"});
-  v.push_back({"s0.garment.max_out", K::Double, &gm.max_out, "garment: largest outward move in the fit (metres)"});
-  v.push_back({"s0.garment.steps", K::Int, &gm.steps, "garment: fit steps when the clothed surface is off"});
-  v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of the fit (metres)"});
-  v.push_back({"s0.garment.lr_final", K::Double, &gm.lr_final, "garment: displacement lr at the end of the fit"});
-  v.push_back({"s0.garment.w.laplacian", K::Double, &gm.w_laplacian, "garment: smoothness weight in the fit"});
-  Stage0Config::Surface& sf = s0.surface;
-  v.push_back({"s0.surface.steps", K::Int, &sf.steps,
-               "clothed surface: displacement of the rest body fitted before stage 1, steps in all (0 = off)"});
-  v.push_back({"s0.surface.resolution", K::Int, &sf.resolution, "clothed surface: longer image side (at most the training one)"});
-  v.push_back({"s0.surface.levels", K::String, &sf.levels, "clothed surface: image pyramid shares, coarsest first"});
-  v.push_back({"s0.surface.warmup", K::Double, &sf.warmup, "clothed surface: share of steps training the texture alone"});
-  v.push_back({"s0.surface.lr", K::Double, &sf.lr, "clothed surface: displacement lr at the start (metres)"});
-  v.push_back({"s0.surface.lr_final", K::Double, &sf.lr_final, "clothed surface: displacement lr at the end"});
-  v.push_back({"s0.surface.lr.texture", K::Double, &sf.lr_texture, "clothed surface: texture lr at the start"});
-  v.push_back({"s0.surface.lr.texture_final", K::Double, &sf.lr_texture_final, "clothed surface: texture lr at the end"});
-  v.push_back({"s0.surface.texture_size", K::Int, &sf.texture_size, "clothed surface: texture side at the finest level"});
-  v.push_back({"s0.surface.max_out", K::Double, &sf.max_out, "clothed surface: largest outward displacement (metres)"});
-  v.push_back({"s0.surface.max_held", K::Double, &sf.max_held,
-               "clothed surface: largest outward displacement of hands, feet, jaw and eyes (metres)"});
-  v.push_back({"s0.surface.max_in", K::Double, &sf.max_in, "clothed surface: largest inward displacement (metres)"});
-  v.push_back({"s0.surface.w.silhouette", K::Double, &sf.w_silhouette, "clothed surface: weight of the mask mismatch"});
-  v.push_back({"s0.surface.w.photo", K::Double, &sf.w_photo, "clothed surface: weight of the colour error"});
-  v.push_back({"s0.surface.w.laplacian", K::Double, &sf.w_laplacian, "clothed surface: weight of the smoothness"});
-  v.push_back({"s0.surface.w.shrink", K::Double, &sf.w_shrink, "clothed surface: weight of the pull back to the body"});
+  add_garment_and_surface_entries(s0, v);
 
   Stage1Config& s1 = c.s1;
   v.push_back({"s1.steps", K::Int, &s1.steps, "stage 1 steps (Gaussians + pose refinement)"});
