@@ -8,6 +8,7 @@
 #include <memory>
 #include <vector>
 
+#include "body/garment_clearance.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "format/animation.h"
@@ -37,6 +38,28 @@ Camera framing_camera(Vec3f lo, Vec3f hi, int size) {
   c.t = -(c.R * eye);
   c.far_plane = dist * 4 + 10;
   return c;
+}
+
+// How far the legs poke through the avatar's garment over the rendered frames, one line
+// (nothing for an avatar without a garment).
+void report_garment_clearance(const AvatarLoader& avatar, const Motion& motion, const std::vector<size_t>& frames) {
+  const BodyModel& body = avatar.avatar().body;
+  if (!body.has_garment()) return;
+  PosedAvatar posed;
+  avatar.repose(SmplxParams{}, posed);
+  const std::vector<int> covered = garment_covered_vertices(body, posed.verts.data());
+  int worst_frame = 0, frames_through = 0;
+  double worst = 0, share = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    avatar.repose(motion.frames[frames[i]], posed);
+    const GarmentClearance c = garment_clearance(body, covered, posed.verts.data());
+    frames_through += c.outside > 0;
+    share = std::max(share, c.share());
+    if (c.max_depth > worst) worst = c.max_depth, worst_frame = int(i);
+  }
+  std::printf("garment: %zu body vertices inside it at rest; a leg through it in %d of %zu frames, at most %.1f%% of them, "
+              "deepest %.1f mm (frame %d)\n",
+              covered.size(), frames_through, frames.size(), 100 * share, 1000 * worst, worst_frame);
 }
 
 }  // namespace
@@ -107,6 +130,7 @@ void run_render(const RenderRunOptions& o) {
     write_image((std::filesystem::path(o.out) / name).string(), img);
   }
   std::printf("%s: %zu frames (%dx%d) -> %s\n", o.avatar.c_str(), frames.size(), cam.width, cam.height, o.out.c_str());
+  report_garment_clearance(avatar, motion, frames);
   if (!o.video.empty()) {
     const double fps = o.fps > 0 ? o.fps : motion.fps / o.every;
     write_atomically(o.video, [&](const std::string& tmp) {

@@ -26,19 +26,6 @@ int cloth_joint(int j) {
   }
 }
 
-// Body vertices mostly driven by the torso and the legs (arms, hands and head left out).
-std::vector<int> trunk_vertices(const BodyModel& body) {
-  std::vector<int> out;
-  const int V = body.num_body_verts();
-  for (int v = 0; v < V; ++v) {
-    double s = 0;
-    for (int j = 0; j < kNumJoints; ++j)
-      if (trunk_or_leg(j)) s += body.weights[size_t(v) * kNumJoints + size_t(j)];
-    if (s >= 0.5) out.push_back(v);
-  }
-  return out;
-}
-
 double column_angle(int k, int C) { return kPi + 2 * kPi * k / C; }  // seam at the back (-Z)
 
 struct P2 {
@@ -141,9 +128,22 @@ void expect(bool ok, const char* where, const std::string& what) {
 
 }  // namespace
 
+// Body vertices mostly driven by the torso and the legs (arms, hands and head left out).
+std::vector<int> garment_source_vertices(const BodyModel& body) {
+  std::vector<int> out;
+  const int V = body.num_body_verts();
+  for (int v = 0; v < V; ++v) {
+    double s = 0;
+    for (int j = 0; j < kNumJoints; ++j)
+      if (trunk_or_leg(j)) s += body.weights[size_t(v) * kNumJoints + size_t(j)];
+    if (s >= 0.5) out.push_back(v);
+  }
+  return out;
+}
+
 std::vector<float> garment_skin_weights(const BodyModel& body, const std::vector<float>& rest, const std::vector<float>& pts,
                                         const std::vector<int32_t>& faces, int k, int smooth) {
-  const std::vector<int> trunk = trunk_vertices(body);
+  const std::vector<int> trunk = garment_source_vertices(body);
   if (trunk.empty()) fail(body.source, "garment: the body has no torso or leg vertices to take skin weights from");
   k = std::clamp(k, 1, int(trunk.size()));
   const int N = int(pts.size() / 3);
@@ -206,7 +206,7 @@ Garment build_garment(const BodyModel& body, const std::vector<float>& rest, con
   if (!(s.y_top > s.y_hem) || s.rings < 2 || s.columns < 8 || !(s.chart > 0 && s.chart <= 0.5f))
     fail(body.source, "garment: degenerate shape (waist above the hem, >= 2 rings, >= 8 columns, chart in (0, 0.5])");
   const double ax = joints[0], az = joints[2];  // the pelvis' vertical axis
-  const std::vector<double> rad = ring_radii(body, rest, trunk_vertices(body), ax, az, s);
+  const std::vector<double> rad = ring_radii(body, rest, garment_source_vertices(body), ax, az, s);
   const int R = s.rings, C = s.columns;
   Garment g;
   g.chart = s.chart;

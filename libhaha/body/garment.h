@@ -46,6 +46,10 @@ struct GarmentShape {
 Garment build_garment(const BodyModel& body, const std::vector<float>& rest, const std::vector<float>& joints,
                       const GarmentShape& shape);
 
+// The body vertices mostly driven by the torso and the legs (SMPL-X joints 0..11: arms,
+// hands and head left out): what a garment encloses and takes its skin weights from.
+std::vector<int> garment_source_vertices(const BodyModel& body);
+
 // Skin weights of points `pts` (N, 3) near the body, diffused from the body's (TailorNet's
 // rule: inverse distance over the k nearest torso / leg vertices of `rest`), the
 // knees', ankles' and feet's weights moved to their hip (cloth hangs from the hips, it does

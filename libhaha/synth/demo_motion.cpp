@@ -64,8 +64,21 @@ std::vector<float> demo_motion_pose(const std::string& kind, double s) {
       set_joint(pose, 4 + side, Rx(0.6));
       set_joint(pose, 7 + side, Rx(-0.3));
     }
+  } else if (kind == "kick") {
+    // Facing the camera, a high front kick with each leg in turn (the hip flexed to 80
+    // degrees, the knee nearly straight), the arms out for balance: the hardest case for a
+    // skirt skinned from the legs.
+    const double right = std::max(0.0, c1), left = std::max(0.0, -c1);
+    const double up_r = right * right * (3 - 2 * right), up_l = left * left * (3 - 2 * left);
+    set_joint(pose, 1, Rx(-1.4 * up_l));
+    set_joint(pose, 2, Rx(-1.4 * up_r));
+    set_joint(pose, 4, Rx(0.25 * up_l));
+    set_joint(pose, 5, Rx(0.25 * up_r));
+    set_joint(pose, 3, Rx(0.15 * (up_l + up_r)));  // leaning back a little
+    set_joint(pose, 16, Rz(-0.5));
+    set_joint(pose, 17, Rz(0.5));
   } else {
-    fail("--kind", "unknown motion '" + kind + "' (wave, walk, turn)");
+    fail("--kind", "unknown motion '" + kind + "' (wave, walk, turn, kick)");
   }
   return pose;
 }

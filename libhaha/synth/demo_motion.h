@@ -5,6 +5,8 @@
 //         elbow, the left arm hanging; looks to both sides once
 //   walk  walking in place, two strides per loop, turning a quarter each way
 //   turn  a full turn with the arms half lowered and the knees slightly bent
+//   kick  facing the camera, a high front kick with the left then the right leg (hip
+//         flexed 80 degrees), arms out: the test of a skirt's skinning
 // Rotations are SMPL-X local rotations in the rest (T-pose) frame, the facts of
 // synth/synth_motion.cpp.
 #pragma once

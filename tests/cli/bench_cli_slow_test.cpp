@@ -254,7 +254,7 @@ TEST(PipelineBench, MotionCommandWritesALoopReadByRender) {
   const fs::path dir = fs::temp_directory_path() / ("haha-motion-" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  for (const char* kind : {"wave", "walk", "turn"}) {
+  for (const char* kind : {"wave", "walk", "turn", "kick"}) {
     const fs::path m = dir / (std::string(kind) + ".npz");
     ASSERT_EQ(run(std::string("motion --kind ") + kind + " --frames 12 --fps 25 --out '" + m.string() + "'", dir / "log"), 0)
         << slurp(dir / "log");
