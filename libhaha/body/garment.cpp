@@ -142,7 +142,7 @@ std::vector<int> garment_source_vertices(const BodyModel& body) {
 }
 
 std::vector<float> garment_skin_weights(const BodyModel& body, const std::vector<float>& rest, const std::vector<float>& pts,
-                                        const std::vector<int32_t>& faces, int k, int smooth) {
+                                        const std::vector<int32_t>& faces, double legs_max, int k, int smooth) {
   const std::vector<int> trunk = garment_source_vertices(body);
   if (trunk.empty()) fail(body.source, "garment: the body has no torso or leg vertices to take skin weights from");
   k = std::clamp(k, 1, int(trunk.size()));
@@ -186,6 +186,21 @@ std::vector<float> garment_skin_weights(const BodyModel& body, const std::vector
       }
     }
     w.swap(next);
+  }
+  // Cloth hangs from the waist and the legs push it: the legs' share grows down the garment
+  // from nothing at its top to legs_max at its hem (the rigger's gradient), split between
+  // the two legs as diffused; the rest is the torso's diffused share (the pelvis where the
+  // torso has none).
+  double y_top = -INFINITY, y_hem = INFINITY;
+  for (int n = 0; n < N; ++n) y_top = std::max(y_top, double(pts[3 * size_t(n) + 1])), y_hem = std::min(y_hem, double(pts[3 * size_t(n) + 1]));
+  for (int n = 0; n < N; ++n) {
+    double* row = &w[size_t(n) * kNumJoints];
+    const double t = y_top > y_hem ? (y_top - pts[3 * size_t(n) + 1]) / (y_top - y_hem) : 1.0;
+    const double legs = row[1] + row[2], torso = 1 - legs, share = legs_max * t;
+    const double left = legs > 1e-9 ? row[1] / legs : (pts[3 * size_t(n)] >= 0 ? 1.0 : 0.0);
+    for (int j = 0; j < kNumJoints; ++j) row[j] = torso > 1e-9 ? row[j] * (1 - share) / torso : 0.0;
+    if (torso <= 1e-9) row[0] = 1 - share;
+    row[1] = share * left, row[2] = share * (1 - left);
   }
   // The four largest, normalised.
   std::vector<float> out(size_t(N) * kNumJoints, 0.0f);
@@ -235,7 +250,7 @@ Garment build_garment(const BodyModel& body, const std::vector<float>& rest, con
     for (int c = 0; c < 3; ++c) wraps |= (g.faces[f0 + size_t(c)] % C) == C - 1;
     g.ft.push_back(int32_t(i * (C + 1) + ((wraps && k == 0) ? C : k)));
   }
-  g.weights = garment_skin_weights(body, rest, g.verts, g.faces);
+  g.weights = garment_skin_weights(body, rest, g.verts, g.faces, s.legs);
   return g;
 }
 

@@ -51,6 +51,8 @@ void add_garment_and_surface_entries(Stage0Config& s0, std::vector<ConfigEntry>&
   v.push_back({"s0.garment.rings", K::Int, &gm.rings, "garment: rings from the waist to the hem"});
   v.push_back({"s0.garment.columns", K::Int, &gm.columns, "garment: vertices around each ring"});
   v.push_back({"s0.garment.chart", K::Double, &gm.chart, "garment: share of the texture's width for its chart"});
+  v.push_back({"s0.garment.legs", K::Double, &gm.legs,
+               "garment: the legs' share of the hem's skin weights, growing from 0 at the waist (the rest: the torso)"});
   v.push_back({"s0.garment.max_out", K::Double, &gm.max_out, "garment: largest outward move in the fit (metres)"});
   v.push_back({"s0.garment.steps", K::Int, &gm.steps, "garment: fit steps when the clothed surface is off"});
   v.push_back({"s0.garment.lr", K::Double, &gm.lr, "garment: displacement lr at the start of the fit (metres)"});
@@ -403,6 +405,7 @@ void validate_config(const TrainConfig& c) {
   need(gm.rings >= 2 && gm.rings <= 256 && gm.columns >= 8 && gm.columns <= 1024, "s0.garment.rings",
        "rings in [2, 256], columns in [8, 1024]");
   need(gm.chart > 0 && gm.chart <= 0.5, "s0.garment.chart", "must be in (0, 0.5]");
+  need(gm.legs >= 0 && gm.legs <= 1, "s0.garment.legs", "must be in [0, 1]");
   need(gm.max_out >= 0 && gm.max_out <= 0.5, "s0.garment.max_out", "must be in [0, 0.5] m");
   need(gm.steps >= 0, "s0.garment.steps", "must be >= 0");
   need(gm.lr > 0 && gm.lr_final > 0 && gm.w_laplacian >= 0, "s0.garment.lr", "rates > 0, smoothness >= 0");

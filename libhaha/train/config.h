@@ -96,6 +96,7 @@ struct Stage0Config {
     int max_frames = 40;        // frames measured, evenly spread
     int rings = 14, columns = 48;
     double chart = 0.2;         // share of the texture's width for the garment's chart
+    double legs = 0.85;         // the legs' share of the hem's skin weights (0 at the waist; body/garment.h)
     double max_out = 0.2;       // largest outward move of a garment vertex in the fit (metres)
     int steps = 400;            // the fit's steps when s0.surface.steps is 0 (the garment alone moves)
     // Its rates and smoothness in the fit, alone or beside the body's displacement (a flared

@@ -158,6 +158,7 @@ GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFra
   shape.rings = opt.rings;
   shape.columns = opt.columns;
   shape.chart = float(opt.chart);
+  shape.legs = opt.legs;
   d.y_top = shape.y_top;
   d.y_hem = shape.y_hem;
   d.garment = build_garment(body, rest, joints, shape);

@@ -1,11 +1,12 @@
 // How far the body pokes through its garment (body/garment_clearance.h), on the procedural
 // body with a skirt to 80% of the thigh: nothing is through at rest; a vertex moved a known
-// distance out of a face reads that depth; a garment held by the pelvis alone lets a kicking
-// thigh through, the diffused weights keep a walk's stride inside; a body without a garment
-// has nothing to check.
+// distance out of a face reads that depth; the more the hem follows the legs, the less a
+// stride or a kick gets through (held by the pelvis alone, by the default gradient, by the
+// legs alone); a body without a garment has nothing to check.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "body/garment.h"
 #include "body/garment_clearance.h"
@@ -21,8 +22,9 @@ struct Dressed {
   std::vector<float> rest;
 };
 
-// The procedural body with a skirt from the waist to 80% of the way to the knees.
-Dressed dressed(bool rigid_to_pelvis = false) {
+// The procedural body with a skirt from the waist to 80% of the way to the knees, the legs'
+// share of its hem `legs` (or held by the pelvis alone).
+Dressed dressed(double legs = GarmentShape{}.legs, bool rigid_to_pelvis = false) {
   const BodyModel b = make_procedural_body();
   std::vector<float> verts(3 * size_t(b.num_verts)), joints(3 * size_t(kNumJoints));
   Lbs<float>(b).forward(SmplxParams{}, verts.data(), joints.data(), nullptr);
@@ -30,6 +32,7 @@ Dressed dressed(bool rigid_to_pelvis = false) {
   const double hip = 0.5 * (joints[4] + joints[7]), knee = 0.5 * (joints[13] + joints[16]);
   s.y_top = 0.5 * (joints[1] + joints[10]);
   s.y_hem = hip + 0.8 * (knee - hip);
+  s.legs = legs;
   Garment g = build_garment(b, verts, joints, s);
   if (rigid_to_pelvis) {
     std::fill(g.weights.begin(), g.weights.end(), 0.0f);
@@ -80,19 +83,24 @@ TEST(GarmentClearance, AVertexMovedOutOfAFaceReadsItsDepth) {
   EXPECT_NEAR(c.mean_depth, 0.04, 1e-5);
 }
 
-TEST(GarmentClearance, APelvisOnlySkirtLetsAKickThroughTheDiffusedOneKeepsAStride) {
-  const Dressed cloth = dressed(), rigid = dressed(true);
-  const std::vector<int> covered = garment_covered_vertices(cloth.body, cloth.rest.data());
-  const std::vector<int> covered_rigid = garment_covered_vertices(rigid.body, rigid.rest.data());
-  EXPECT_EQ(covered, covered_rigid) << "the same rest surface covers the same vertices";
-  const GarmentClearance kick_rigid = garment_clearance(rigid.body, covered_rigid, posed(rigid, 1.4).data());
-  EXPECT_GT(kick_rigid.outside, 50);
-  EXPECT_GT(kick_rigid.max_depth, 0.05) << "a thigh at 80 degrees leaves a skirt that does not move";
-  const GarmentClearance stride = garment_clearance(cloth.body, covered, posed(cloth, 0.45).data());
-  EXPECT_LT(stride.share(), 0.01) << "a walk's stride stays inside the skirt skinned from the body";
-  EXPECT_LT(stride.max_depth, 0.01);
-  const GarmentClearance kick = garment_clearance(cloth.body, covered, posed(cloth, 1.4).data());
-  EXPECT_LT(kick.max_depth, kick_rigid.max_depth);
+TEST(GarmentClearance, TheMoreTheHemFollowsTheLegsTheLessGetsThrough) {
+  const Dressed rigid = dressed(0.0, true), gradient = dressed(), legs = dressed(1.0);
+  const std::vector<int> covered = garment_covered_vertices(gradient.body, gradient.rest.data());
+  EXPECT_EQ(garment_covered_vertices(rigid.body, rigid.rest.data()), covered) << "the same rest surface covers the same";
+  EXPECT_EQ(garment_covered_vertices(legs.body, legs.rest.data()), covered);
+  for (double flexion : {0.45, 1.4}) {  // a walk's stride, a high kick
+    const GarmentClearance r = garment_clearance(rigid.body, covered, posed(rigid, flexion).data());
+    const GarmentClearance g = garment_clearance(gradient.body, covered, posed(gradient, flexion).data());
+    const GarmentClearance l = garment_clearance(legs.body, covered, posed(legs, flexion).data());
+    EXPECT_GT(r.max_depth, 0.03) << flexion << ": a thigh leaves a skirt that does not move";
+    EXPECT_GT(r.outside, 20) << flexion;
+    EXPECT_LT(g.max_depth, r.max_depth) << flexion;
+    EXPECT_LT(g.outside, r.outside) << flexion;
+    EXPECT_LE(l.max_depth, g.max_depth) << flexion;
+    std::printf("hip flexion %.2f rad: through %.1f / %.1f / %.1f mm, %.1f%% / %.1f%% / %.1f%% (pelvis / default / legs)\n",
+                flexion, 1000 * r.max_depth, 1000 * g.max_depth, 1000 * l.max_depth, 100 * r.share(), 100 * g.share(),
+                100 * l.share());
+  }
 }
 
 TEST(GarmentClearance, ABodyWithoutAGarmentHasNothingToCheck) {

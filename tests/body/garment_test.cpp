@@ -1,7 +1,7 @@
 // A garment as a part of the body mesh (body/garment.h), on the procedural body: the loft
 // encloses the torso and both legs at every ring, faces outward, hangs from the hips (at most
 // four influences, no knee, both legs blended at the front and back centre, one leg at the
-// sides), its chart stays on the right of the texture; appending it leaves the body's posing
+// sides, the legs' share growing from the waist to the hem), its chart stays on the right of the texture; appending it leaves the body's posing
 // bit for bit as it was, and garment_of gives it back; bad arrays are named.
 #include <gtest/gtest.h>
 
@@ -128,6 +128,22 @@ TEST(Garment, HangsFromTheHipsWithAtMostFourInfluences) {
     EXPECT_GE(g.vt[i], 1.0f - s.chart);
     EXPECT_LE(g.vt[i], 1.0f);
   }
+}
+
+TEST(Garment, TheLegsShareGrowsFromTheWaistToTheHem) {
+  const Rest r = rest_of(body());
+  GarmentShape s = skirt_shape(r);
+  const Garment g = build_garment(body(), r.verts, r.joints, s);
+  const int C = s.columns;
+  auto legs = [&](const Garment& x, int i, int k) { return weight(x, i * C + k, 1) + weight(x, i * C + k, 2); };
+  for (int k = 0; k < C; ++k) {
+    EXPECT_LT(legs(g, 0, k), 0.05) << "the waist hangs from the torso, column " << k;
+    EXPECT_NEAR(legs(g, s.rings - 1, k), s.legs, 0.05) << "the hem, column " << k;
+    for (int i = 1; i < s.rings; ++i) EXPECT_GE(legs(g, i, k), legs(g, i - 1, k) - 0.02) << "ring " << i << ", column " << k;
+  }
+  s.legs = 1.0;  // a hem on the legs alone
+  const Garment all = build_garment(body(), r.verts, r.joints, s);
+  for (int k = 0; k < C; ++k) EXPECT_NEAR(legs(all, s.rings - 1, k), 1.0, 1e-5) << "column " << k;
 }
 
 TEST(Garment, AppendingLeavesTheBodyAsItWas) {
