@@ -131,5 +131,38 @@ TEST(GarmentPrimitive, VersionThreeFileStillLoads) {
   EXPECT_EQ(unpack_avatar(again.data(), again.size(), "again.glb").info.garment_gaussians, u.info.garment_gaussians);
 }
 
+// A body model given to the loader (haha render --model) supplies the body's correctives:
+// it is checked against the body part, and the garment keeps its own weights, no
+// correctives, as the trainer's LBS does.
+TEST(GarmentPrimitive, BodyModelSuppliesTheBodysCorrectivesOnly) {
+  const Avatar bare = test::without_degenerate_face(test::make_test_avatar(120));
+  const Avatar a = test::with_test_garment(bare, 7);
+  PackOptions opt = plain_pack();
+  opt.pose_correctives = PoseCorrectives::none;
+  const std::vector<uint8_t> bytes = pack_avatar(a, opt);
+  const UnpackedAvatar u = unpack_avatar(bytes.data(), bytes.size(), "garment.glb");
+  ASSERT_TRUE(u.avatar.body.posedirs.empty());
+  AvatarLoader loader(u.avatar);
+  loader.set_pose_correctives(bare.body);
+  ASSERT_TRUE(loader.has_pose_correctives());
+  SmplxParams p;
+  std::mt19937 rng(5);
+  std::normal_distribution<float> n(0.0f, 0.4f);
+  for (float& x : p.pose) x = n(rng);
+  p.betas = a.betas, p.expression = a.expression;
+  std::vector<float> want(a.body.v_template.size());
+  Lbs<float>(a.body).forward(p, want.data(), nullptr, nullptr);
+  PosedAvatar posed;
+  loader.repose(p, posed);
+  float worst = 0;
+  for (size_t i = 0; i < want.size(); ++i) worst = std::max(worst, std::fabs(posed.verts[i] - want[i]));
+  EXPECT_LT(worst, 2e-3f) << "m, every posed vertex (body with correctives, garment without)";
+  // A model of another topology is still refused.
+  BodyModel other = bare.body;
+  other.faces.resize(other.faces.size() - 3);
+  other.num_faces -= 1;
+  EXPECT_THROW(loader.set_pose_correctives(other), Error);
+}
+
 }  // namespace
 }  // namespace haha
