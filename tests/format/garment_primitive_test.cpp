@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <random>
 
 #include "body/lbs.h"
@@ -129,6 +130,32 @@ TEST(GarmentPrimitive, VersionThreeFileStillLoads) {
   const glb::Glb gl = glb::parse_glb(again.data(), again.size(), "again.glb");
   EXPECT_EQ(gl.json["meshes"][0]["primitives"].size(), 2u);
   EXPECT_EQ(unpack_avatar(again.data(), again.size(), "again.glb").info.garment_gaussians, u.info.garment_gaussians);
+}
+
+// A garment file that does not hold together gives one error naming the file and the part.
+TEST(GarmentPrimitive, InconsistentGarmentFilesAreRefused) {
+  const std::vector<uint8_t> bytes = pack_avatar(garment_avatar(), plain_pack());
+  const glb::Glb g = glb::parse_glb(bytes.data(), bytes.size(), "garment.glb");
+  auto expect_refused = [&](const std::function<void(glb::Json&)>& edit, const std::string& expect) {
+    glb::Json j = g.json;
+    edit(j);
+    const std::vector<uint8_t> bad = glb::write_glb(j, g.bin);
+    try {
+      unpack_avatar(bad.data(), bad.size(), "bad.glb");
+      ADD_FAILURE() << "accepted; expected an error mentioning " << expect;
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("bad.glb"), std::string::npos) << m;
+      EXPECT_NE(m.find(expect), std::string::npos) << m;
+    }
+  };
+  auto garment = [](glb::Json& j) -> glb::Json& { return j["extensions"][kAvatarExtension]["body"]["garment"]; };
+  expect_refused([](glb::Json& j) { j["extensions"][kAvatarExtension]["body"].erase("garment"); }, "a second primitive");
+  expect_refused([](glb::Json& j) { j["extensions"][kAvatarExtension]["version"] = 3; }, "a second primitive");
+  expect_refused([&](glb::Json& j) { garment(j)["firstFace"] = int(garment(j)["firstFace"]) - 1; }, "primitives[0]");
+  expect_refused([&](glb::Json& j) { garment(j)["firstVertex"] = int(garment(j)["firstVertex"]) + 1; }, "joins the body's and the garment's");
+  expect_refused([&](glb::Json& j) { garment(j)["chart"] = 0.9; }, "chart");
+  expect_refused([](glb::Json& j) { j["meshes"][0]["primitives"].push_back(j["meshes"][0]["primitives"][1]); }, "3 primitives");
 }
 
 // A body model given to the loader (haha render --model) supplies the body's correctives:
