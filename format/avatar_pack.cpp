@@ -188,7 +188,9 @@ SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight, int weig
     const std::vector<uint16_t> codes = lossless ? std::vector<uint16_t>() : weight_codes(list, weight_bits);
     for (size_t i = 0; i < list.size(); ++i) {
       const size_t at = ((i / 4) * V + size_t(v)) * 4 + i % 4;
-      s.joints[at] = uint8_t(list[i].second);
+      // A weight whose code rounds to zero names joint 0, as glTF asks of unused slots
+      // (the validator warns of a zero weight on a non-zero joint).
+      s.joints[at] = lossless || codes[i] != 0 ? uint8_t(list[i].second) : 0;
       if (lossless) s.weights[at] = list[i].first;
       else s.codes[at] = codes[i];
     }
