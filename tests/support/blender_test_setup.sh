@@ -4,9 +4,10 @@
 #   tiny_avatar HAHA WORKDIR OUT.glb [haha pack options]
 #                                the tiny trained avatar of the interop tests, packed into OUT.glb
 #                                (TINY_TRAIN_EXTRA: more `haha train` key=value settings)
-#   given_or_tiny_avatar HAHA WORKDIR [AVATAR.glb]
+#   given_or_tiny_avatar HAHA WORKDIR [AVATAR.glb | --garment]
 #                                prints AVATAR.glb, or without one makes WORKDIR/avatar.glb
-#                                (tiny_avatar; its run stays in WORKDIR/run) and prints that
+#                                (tiny_avatar; its run stays in WORKDIR/run) and prints that;
+#                                --garment: the tiny avatar trained with a skirt
 # Blender is not part of scripts/install-deps.sh (it is large).
 blender="${HAHA_BLENDER:-blender}"
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
@@ -35,10 +36,11 @@ tiny_avatar() {
 
 given_or_tiny_avatar() {
   local haha="$1" work="$2" given="${3:-}"
-  if [ -n "$given" ]; then
+  if [ -n "$given" ] && [ "$given" != --garment ]; then
     echo "$given"
     return
   fi
+  [ "$given" = --garment ] && local TINY_TRAIN_EXTRA="s0.garment.mode=skirt"
   tiny_avatar "$haha" "$work" "$work/avatar.glb"
   echo "$work/avatar.glb"
 }
