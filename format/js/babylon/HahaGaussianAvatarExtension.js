@@ -187,9 +187,8 @@ export class HahaGaussianLayer {
   // the body, then a garment; Babylon makes a node of several primitives a parent of one
   // mesh each); the skinned meshes are disabled.
   makeExactBody() {
-    const B = this.B, body = this.bodyNode, a = this.avatar;
-    if (!body) throw new Error(`${EXTENSION_NAME}: the body node is not a mesh`);
-    const parts = body.getVerticesData ? [body] : body.getChildMeshes(true).filter((m) => m.getVerticesData);
+    const B = this.B, a = this.avatar;
+    const parts = this.bodyParts;
     if (!parts.length) throw new Error(`${EXTENSION_NAME}: the body node is not a mesh`);
     const total = parts.reduce((n, m) => n + m.getTotalVertices(), 0);
     if (total !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${total} vertices, the avatar ${a.Vg}`);
@@ -222,6 +221,13 @@ export class HahaGaussianLayer {
     for (const { mesh, first, count } of this.exactParts) {
       mesh.updateVerticesData(this.B.VertexBuffer.PositionKind, P.subarray(3 * first, 3 * (first + count)), false, false);
     }
+  }
+
+  // The body node's meshes, one per primitive of the body mesh (the body's, then a garment's).
+  get bodyParts() {
+    const body = this.bodyNode;
+    if (!body) return [];
+    return body.getVerticesData ? [body] : body.getChildMeshes(true).filter((m) => m.getVerticesData);
   }
 
   // World-space Gaussian centres (N x 3) after update().
