@@ -1,5 +1,6 @@
 #include "app/run_dir.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -177,9 +178,41 @@ Avatar load_stage1_avatar(const RunDir& run, const BodyModel& body) {
   return a;
 }
 
+namespace {
+
+// The body part of a body with a garment appended (body/garment.h), its UVs back in the
+// whole texture: the body model of an unpacked run, to which load_run_avatar appends the
+// garment avatar.npz keeps (append_garment shrinks the body's UVs again).
+BodyModel body_without_garment(const BodyModel& b) {
+  if (!b.has_garment()) return b;
+  const size_t V = size_t(b.garment_first_vert), F = size_t(b.garment_first_face), T = size_t(b.garment_first_uv);
+  BodyModel out = b;
+  out.num_verts = int(V);
+  out.num_faces = int(F);
+  out.v_template.resize(V * 3);
+  out.faces.resize(F * 3);
+  out.ft.resize(F * 3);
+  out.vt.resize(T * 2);
+  for (size_t i = 0; i < out.vt.size(); i += 2) out.vt[i] = std::min(1.0f, out.vt[i] / (1.0f - b.garment_chart));
+  out.weights.resize(V * kNumJoints);
+  if (!b.posedirs.empty()) out.posedirs.resize(V * 3 * kNumPoseFeatures);
+  if (!b.shapedirs.empty()) out.shapedirs.resize(b.shapedirs.size() / size_t(b.num_verts) * V);
+  if (!b.j_regressor.empty()) {
+    out.j_regressor.assign(size_t(kNumJoints) * V, 0.0f);
+    for (size_t j = 0; j < size_t(kNumJoints); ++j)
+      std::copy_n(&b.j_regressor[j * size_t(b.num_verts)], V, &out.j_regressor[j * V]);
+  }
+  out.rest_offsets.clear();
+  out.garment_first_vert = out.garment_first_face = out.garment_first_uv = 0;
+  out.garment_chart = 0;
+  return out;
+}
+
+}  // namespace
+
 void write_unpacked_run(const RunDir& run, const Avatar& avatar, const std::string& unpacked_from) {
-  save_avatar_npz(avatar, run.avatar());
-  save_body_model(avatar.body, run.file("body.npz"));
+  save_avatar_npz(avatar, run.avatar());  // with the garment, when the body carries one
+  save_body_model(body_without_garment(avatar.body), run.file("body.npz"));
   RunInfo info;
   info.trained = false;
   info.model_path = "body.npz";

@@ -76,15 +76,20 @@ void AvatarLoader::set_animations(std::vector<AvatarAnimation> animations) { s_-
 void AvatarLoader::set_pose_correctives(const BodyModel& model) {
   BodyModel& b = s_->avatar.body;
   const std::string where = model.source.empty() ? "body model" : model.source;
+  // A garment (body/garment.h) has no correctives and is not the model's: the model must
+  // be the avatar's body part, and the garment's rows stay zero.
+  const int V = b.num_body_verts();
+  const std::vector<int32_t> body_faces(b.faces.begin(), b.faces.begin() + long(b.num_body_faces()) * 3);
   // A file's faces may be in the encoder's order, each face's corners rotated: compare
   // the faces as sets of oriented triangles.
-  const bool same_faces = model.faces == b.faces || same_oriented_faces(model.faces, b.faces);
-  if (model.num_verts != b.num_verts || !same_faces) {
+  const bool same_faces = model.faces == body_faces || same_oriented_faces(model.faces, body_faces);
+  if (model.num_verts != V || !same_faces) {
     fail(where, "pose correctives: the body model's mesh (" + std::to_string(model.num_verts) +
-                    " vertices) is not the avatar's (" + std::to_string(b.num_verts) + ")");
+                    " vertices) is not the avatar's body (" + std::to_string(V) + ")");
   }
   if (model.posedirs.size() != size_t(model.num_verts) * 3 * kNumPoseFeatures) fail(where, "posedirs: missing");
   b.posedirs = model.posedirs;
+  b.posedirs.resize(size_t(b.num_verts) * 3 * kNumPoseFeatures, 0.0f);
   s_->lbs = std::make_unique<Lbs<float>>(b);
 }
 

@@ -44,29 +44,44 @@ Json float_array(const float* v, size_t n) {
   return a;
 }
 
-// glTF vertices: one per distinct (body vertex, UV index) corner pair. The first V glTF
-// vertices are the body vertices in order (so unreferenced vertices survive too); seam
-// duplicates follow in first-use order.
+// One primitive's share of the body model: vertices [v0, v1) and faces [f0, f1). The body
+// is primitive 0; a garment (body/garment.h) is primitive 1, so a glTF viewer shows it
+// skinned on the body and a user can hide or swap it.
+struct MeshPart {
+  int v0 = 0, v1 = 0, f0 = 0, f1 = 0;
+  int num_faces() const { return f1 - f0; }
+};
+
+std::vector<MeshPart> mesh_parts(const BodyModel& b) {
+  if (!b.has_garment()) return {{0, b.num_verts, 0, b.num_faces}};
+  return {{0, b.garment_first_vert, 0, b.garment_first_face}, {b.garment_first_vert, b.num_verts, b.garment_first_face, b.num_faces}};
+}
+
+// glTF vertices: one per distinct (body vertex, UV index) corner pair. The part's first
+// glTF vertices are its body vertices in order (so unreferenced vertices survive too); seam
+// duplicates follow in first-use order. `source` holds indices of the whole mesh.
 struct SplitMesh {
   std::vector<int32_t> source;  // (Vg) body vertex of each glTF vertex
   std::vector<int32_t> uv_of;   // (Vg) UV index of each glTF vertex (-1: none)
   std::vector<int32_t> faces;   // (F, 3) glTF vertex per corner
 };
 
-SplitMesh split_at_seams(const BodyModel& b) {
+SplitMesh split_at_seams(const BodyModel& b, const MeshPart& part) {
   SplitMesh s;
-  const int V = b.num_verts, F = b.num_faces;
-  s.source.resize(size_t(V));
-  s.uv_of.assign(size_t(V), -1);
-  for (int v = 0; v < V; ++v) s.source[size_t(v)] = v;
+  const int n = part.v1 - part.v0;
+  s.source.resize(size_t(n));
+  s.uv_of.assign(size_t(n), -1);
+  for (int v = 0; v < n; ++v) s.source[size_t(v)] = part.v0 + v;
   std::map<std::pair<int32_t, int32_t>, int32_t> extra;
-  s.faces.resize(size_t(F) * 3);
-  for (size_t c = 0; c < size_t(F) * 3; ++c) {
-    const int32_t v = b.faces[c], t = b.ft[c];
+  s.faces.resize(size_t(part.num_faces()) * 3);
+  for (size_t c = 0; c < s.faces.size(); ++c) {
+    const size_t at = size_t(part.f0) * 3 + c;
+    const int32_t v = b.faces[at], t = b.ft[at], l = v - part.v0;
+    if (l < 0 || l >= n) fail("avatar", "garment: a face joins the body's and the garment's vertices");
     int32_t g;
-    if (s.uv_of[size_t(v)] < 0 || s.uv_of[size_t(v)] == t) {
-      s.uv_of[size_t(v)] = t;
-      g = v;
+    if (s.uv_of[size_t(l)] < 0 || s.uv_of[size_t(l)] == t) {
+      s.uv_of[size_t(l)] = t;
+      g = l;
     } else {
       auto it = extra.find({v, t});
       if (it == extra.end()) {
@@ -173,7 +188,9 @@ SkinSets skin_sets(const BodyModel& b, bool lossless, float min_weight, int weig
     const std::vector<uint16_t> codes = lossless ? std::vector<uint16_t>() : weight_codes(list, weight_bits);
     for (size_t i = 0; i < list.size(); ++i) {
       const size_t at = ((i / 4) * V + size_t(v)) * 4 + i % 4;
-      s.joints[at] = uint8_t(list[i].second);
+      // A weight whose code rounds to zero names joint 0, as glTF asks of unused slots
+      // (the validator warns of a zero weight on a non-zero joint).
+      s.joints[at] = lossless || codes[i] != 0 ? uint8_t(list[i].second) : 0;
       if (lossless) s.weights[at] = list[i].first;
       else s.codes[at] = codes[i];
     }
@@ -282,15 +299,19 @@ RestBody rest_body(const Avatar& a) {
 // Whether a decoded (edgebreaker) mesh gives the reader back the body: every body vertex
 // through _BODY_VERTEX, and the body's faces as the same canonical face list (the order the
 // Gaussians name). False: the caller keeps the face order instead.
-bool keeps_body_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b) {
-  const int V = b.num_verts, F = b.num_faces;
+bool keeps_body_faces(const dracoio::Decoded& dec, int body_vertex_id, const BodyModel& b, const MeshPart& part) {
+  const int F = part.num_faces();
   if (dec.num_faces() != F) return false;
   const std::vector<int64_t> bv = dec.ints(body_vertex_id, 1, "_BODY_VERTEX");
-  std::vector<char> seen(size_t(V), 0);
-  for (int64_t v : bv) seen[size_t(v)] = 1;
+  std::vector<char> seen(size_t(part.v1 - part.v0), 0);
+  for (int64_t v : bv) {
+    if (v < part.v0 || v >= part.v1) return false;
+    seen[size_t(v - part.v0)] = 1;
+  }
   if (std::count(seen.begin(), seen.end(), 0) != 0) return false;
   std::vector<int32_t> file_faces = dec.faces();
   for (int32_t& c : file_faces) c = int32_t(bv[size_t(c)]);
+  const std::vector<int32_t> part_faces(b.faces.begin() + long(part.f0) * 3, b.faces.begin() + long(part.f1) * 3);
   auto canonical_list = [F](const std::vector<int32_t>& faces) {
     const CanonicalFaces c = canonical_faces(faces.data(), F);
     std::vector<std::array<int32_t, 3>> out;
@@ -300,14 +321,15 @@ bool keeps_body_faces(const dracoio::Decoded& dec, int body_vertex_id, const Bod
     }
     return out;
   };
-  return canonical_list(file_faces) == canonical_list(b.faces);
+  return canonical_list(file_faces) == canonical_list(part_faces);
 }
 
-// The body mesh's per-glTF-vertex arrays (split at UV seams), what both storages write.
+// One primitive's per-glTF-vertex arrays (split at UV seams), what both storages write.
 struct BodyArrays {
+  MeshPart part;
   SplitMesh split;
   std::vector<float> pos, nrm, uv, uv_src;           // (Vg, 3), (Vg, 3) or empty, (Vg, 2), (Vg, 2)
-  SkinSets skin;                                      // per body vertex
+  int skin_sets = 0;
   std::vector<std::vector<uint8_t>> joints;           // per set (Vg, 4)
   std::vector<std::vector<float>> weights;            // per set (Vg, 4), lossless
   std::vector<std::vector<uint16_t>> codes;           // per set (Vg, 4), lossy
@@ -315,14 +337,21 @@ struct BodyArrays {
   std::vector<float> source_float;                    // _BODY_VERTEX otherwise
 };
 
-BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const PackOptions& opt) {
+// What every primitive gathers from: the whole mesh's rest normals and skin.
+struct WholeMesh {
+  std::vector<float> normals;  // (V, 3) or empty
+  SkinSets skin;
+};
+
+BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const WholeMesh& whole, const MeshPart& part, const PackOptions& opt) {
   const BodyModel& b = a.body;
   const int V = b.num_verts;
   BodyArrays r;
-  r.split = split_at_seams(b);
+  r.part = part;
+  r.split = split_at_seams(b, part);
   const int Vg = int(r.split.source.size());
   r.pos = gather(rest.verts, r.split.source, 3);
-  if (opt.normals) r.nrm = gather(vertex_normals(rest.verts, b), r.split.source, 3);
+  if (opt.normals) r.nrm = gather(whole.normals, r.split.source, 3);
   r.uv.assign(size_t(Vg) * 2, 0.0f);
   r.uv_src.assign(size_t(Vg) * 2, 0.0f);
   for (int g = 0; g < Vg; ++g) {
@@ -333,15 +362,16 @@ BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const PackOptions&
     r.uv[size_t(g) * 2] = r.uv_src[size_t(g) * 2];
     r.uv[size_t(g) * 2 + 1] = 1.0f - r.uv_src[size_t(g) * 2 + 1];  // glTF UV origin: top-left
   }
-  r.skin = skin_sets(b, opt.lossless, opt.min_skin_weight, opt.mesh_bits.weight);
+  const SkinSets& skin = whole.skin;
+  r.skin_sets = skin.sets;
   const size_t set_size = size_t(V) * 4;
-  for (int s = 0; s < r.skin.sets; ++s) {
+  for (int s = 0; s < skin.sets; ++s) {
     const auto first = [&](auto& v) { return v.begin() + long(size_t(s) * set_size); };
-    r.joints.push_back(gather(std::vector<uint8_t>(first(r.skin.joints), first(r.skin.joints) + long(set_size)), r.split.source, 4));
+    r.joints.push_back(gather(std::vector<uint8_t>(first(skin.joints), first(skin.joints) + long(set_size)), r.split.source, 4));
     if (opt.lossless) {
-      r.weights.push_back(gather(std::vector<float>(first(r.skin.weights), first(r.skin.weights) + long(set_size)), r.split.source, 4));
+      r.weights.push_back(gather(std::vector<float>(first(skin.weights), first(skin.weights) + long(set_size)), r.split.source, 4));
     } else {
-      r.codes.push_back(gather(std::vector<uint16_t>(first(r.skin.codes), first(r.skin.codes) + long(set_size)), r.split.source, 4));
+      r.codes.push_back(gather(std::vector<uint16_t>(first(skin.codes), first(skin.codes) + long(set_size)), r.split.source, 4));
     }
   }
   if (V <= 65536) r.source16.assign(r.split.source.begin(), r.split.source.end());
@@ -363,13 +393,14 @@ Json position_bounds(const std::vector<float>& p, Json acc) {
   return acc;
 }
 
-// The body mesh as KHR_draco_mesh_compression (edgebreaker, or sequential to keep the
-// body's face order; lossless: sequential, float32). Returns the primitive.
-Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const PackOptions& opt) {
+// One primitive as KHR_draco_mesh_compression (edgebreaker, or sequential to keep the
+// body's face order; lossless: sequential, float32), a stream of its own. Returns the
+// primitive; `record` gets what the extension says of the stream (body.draco).
+Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const PackOptions& opt, Json& record) {
   const BodyModel& b = a.body;
   const bool lossless = opt.lossless;
   const MeshBits mb = lossless ? MeshBits{0, 0, 0, 0} : opt.mesh_bits;
-  const int F = b.num_faces, Vg = int(r.split.source.size());
+  const int F = r.part.num_faces(), Vg = int(r.split.source.size());
   using dracoio::AttrIn;
   using dracoio::Kind;
   using dracoio::Type;
@@ -377,7 +408,7 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
   mattrs.push_back({"POSITION", Kind::position, Type::f32, 3, r.pos.data(), mb.position});
   if (opt.normals) mattrs.push_back({"NORMAL", Kind::normal, Type::f32, 3, r.nrm.data(), mb.normal});
   mattrs.push_back({"TEXCOORD_0", Kind::texcoord, Type::f32, 2, r.uv.data(), mb.texcoord});
-  for (int s = 0; s < r.skin.sets; ++s) {
+  for (int s = 0; s < r.skin_sets; ++s) {
     mattrs.push_back({"JOINTS_" + std::to_string(s), Kind::generic, Type::u8, 4, r.joints[size_t(s)].data(), 0});
     if (lossless) mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, r.weights[size_t(s)].data(), 0});
     else mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::u16, 4, r.codes[size_t(s)].data(), 0, true, true});
@@ -395,8 +426,8 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
   // would fail here, not later).
   std::unique_ptr<dracoio::Decoded> dec =
       std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
-  if (method == dracoio::Method::edgebreaker && !keeps_body_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b)) {
-    method = dracoio::Method::sequential;  // a body edgebreaker cannot map back: keep the face order
+  if (method == dracoio::Method::edgebreaker && !keeps_body_faces(*dec, mesh_enc.unique_ids[size_t(body_vertex_attr)], b, r.part)) {
+    method = dracoio::Method::sequential;  // an edgebreaker part that cannot map back: keep the face order
     mesh_enc = dracoio::encode(Vg, mattrs, r.split.faces.data(), F, method);
     dec = std::make_unique<dracoio::Decoded>(mesh_enc.bytes.data(), mesh_enc.bytes.size(), true, "pack", "mesh");
   }
@@ -404,12 +435,12 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
       (dec->num_faces() != F || dec->num_points() != Vg || dec->faces() != r.split.faces)) {
     fail("pack", "Draco changed the mesh's face or vertex order; refusing to write a file whose Gaussians would bind to the wrong faces");
   }
-  d.sz.edgebreaker = method == dracoio::Method::edgebreaker;
+  d.sz.edgebreaker = d.sz.edgebreaker || method == dracoio::Method::edgebreaker;
   d.sz.draco_mesh = true;
   const int Vf = dec->num_points();  // edgebreaker may drop unreferenced points
-  d.sz.num_vertices = Vf;
+  d.sz.num_vertices += Vf;
   const int mesh_view = d.bin.add_view(mesh_enc.bytes.data(), mesh_enc.bytes.size());
-  d.sz.mesh = mesh_enc.bytes.size();
+  d.sz.mesh += mesh_enc.bytes.size();
 
   Json prim_attrs, draco_attrs;
   const int idx_acc = d.add_accessor({{"componentType", Vf > 65535 ? kUInt : kUShort}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
@@ -417,7 +448,7 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
                                                           {{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"}}));
   if (opt.normals) prim_attrs["NORMAL"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC3"}});
   prim_attrs["TEXCOORD_0"] = d.add_accessor({{"componentType", kFloat}, {"count", Vf}, {"type", "VEC2"}});
-  for (int s = 0; s < r.skin.sets; ++s) {
+  for (int s = 0; s < r.skin_sets; ++s) {
     prim_attrs["JOINTS_" + std::to_string(s)] = d.add_accessor({{"componentType", kUByte}, {"count", Vf}, {"type", "VEC4"}});
     Json w = {{"componentType", lossless ? kFloat : kUShort}, {"count", Vf}, {"type", "VEC4"}};
     if (!lossless) w["normalized"] = true;
@@ -430,8 +461,8 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
   for (size_t i = first_private; i < mattrs.size(); ++i) mesh_private[mattrs[i].name] = mesh_enc.unique_ids[i];
   Json m_bits = {{"POSITION", mb.position}, {"TEXCOORD_0", mb.texcoord}, {"WEIGHTS", mb.weight}};
   if (opt.normals) m_bits["NORMAL"] = mb.normal;
-  d.ext["body"]["draco"] = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
-                            {"quantizationBits", m_bits}, {"method", d.sz.edgebreaker ? "edgebreaker" : "sequential"}};
+  record = {{"bufferView", mesh_view}, {"crc32", d.bin.view_crc(mesh_view)}, {"attributes", mesh_private},
+                            {"quantizationBits", m_bits}, {"method", method == dracoio::Method::edgebreaker ? "edgebreaker" : "sequential"}};
   return {{"attributes", prim_attrs},
           {"indices", idx_acc},
           {"mode", 4},
@@ -439,7 +470,7 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
           {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", mesh_view}, {"attributes", draco_attrs}}}}}};
 }
 
-// The body mesh as plain accessors (no required extension; format/spec.md section 2).
+// One primitive as plain accessors (no required extension; format/spec.md section 2).
 Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt) {
   const int Vg = int(r.split.source.size()), F = int(r.split.faces.size() / 3);
   auto add = [&](const void* data, size_t bytes, int target, Json acc) {
@@ -453,7 +484,7 @@ Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt)
   if (opt.normals) attrs["NORMAL"] = add(r.nrm.data(), r.nrm.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC3"}});
   // Float UVs: Godot 3 ignores `normalized` on integer UVs (measured: one texel everywhere).
   attrs["TEXCOORD_0"] = add(r.uv.data(), r.uv.size() * 4, kArrayBuffer, {{"componentType", kFloat}, {"count", Vg}, {"type", "VEC2"}});
-  for (int s = 0; s < r.skin.sets; ++s) {
+  for (int s = 0; s < r.skin_sets; ++s) {
     const std::string n = std::to_string(s);
     attrs["JOINTS_" + n] = add(r.joints[size_t(s)].data(), r.joints[size_t(s)].size(), kArrayBuffer,
                                {{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
@@ -480,53 +511,71 @@ Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt)
   } else {
     indices = add(r.split.faces.data(), r.split.faces.size() * 4, kElementArrayBuffer, {{"componentType", kUInt}, {"count", size_t(F) * 3}, {"type", "SCALAR"}});
   }
-  d.sz.num_vertices = Vg;
+  d.sz.num_vertices += Vg;
   return {{"attributes", attrs}, {"indices", indices}, {"mode", 4}, {"material", 0}};
 }
 
-// The skinned, textured body mesh (mesh 0), and the face order the Gaussians bind to:
-// canonical (lossy packs: any tool may reorder the mesh) or the file's (lossless packs,
-// whose sequential Draco stream keeps the body's order).
+// The face the Gaussians of each body face name (d.file_face) and which of its corners is
+// the body face's corner 0 (d.file_corner): the file's order in lossless packs, else the
+// canonical order.
+void bind_face_order(GlbDoc& d, const BodyModel& b, bool lossless) {
+  const int F = b.num_faces;
+  d.file_face.resize(size_t(F));
+  if (lossless) {
+    for (int f = 0; f < F; ++f) d.file_face[size_t(f)] = f;
+    d.file_corner.assign(size_t(F), 0);
+    return;
+  }
+  const CanonicalFaces c = canonical_faces(b.faces.data(), F);
+  d.file_corner.resize(size_t(F));
+  for (int k = 0; k < F; ++k) d.file_face[size_t(c.order[size_t(k)])] = k;
+  // Body corner 0 sits at canonical corner (3 - rotation) mod 3.
+  for (int f = 0; f < F; ++f) d.file_corner[size_t(f)] = uint8_t((3 - c.rotation[size_t(f)]) % 3);
+}
+
+// The skinned, textured body mesh (mesh 0): the body as primitive 0 and a garment, when
+// there is one, as primitive 1 (the same node, so the same skin). The Gaussians' face
+// indices stay the whole mesh's (primitive 0's triangles, then primitive 1's), in the face
+// order they bind to: canonical (lossy packs: any tool may reorder the mesh) or the
+// file's (lossless packs, whose sequential Draco streams keep the body's order).
 void add_body_mesh(GlbDoc& d, const Avatar& a, const RestBody& rest, const PackOptions& opt) {
   const BodyModel& b = a.body;
-  const BodyArrays r = body_arrays(a, rest, opt);
-  d.sz.skin_sets = r.skin.sets;
-  d.sz.max_influences = r.skin.max_influences;
+  WholeMesh whole;
+  if (opt.normals) whole.normals = vertex_normals(rest.verts, b);
+  whole.skin = skin_sets(b, opt.lossless, opt.min_skin_weight, opt.mesh_bits.weight);
+  d.sz.skin_sets = whole.skin.sets;
+  d.sz.max_influences = whole.skin.max_influences;
   const bool draco = opt.mesh_compression == MeshCompression::draco;
-  Json primitive = draco ? add_draco_body_mesh(d, a, r, opt) : add_plain_body_mesh(d, r, opt);
+  Json primitives = Json::array(), records = Json::array();
+  for (const MeshPart& part : mesh_parts(b)) {
+    const BodyArrays r = body_arrays(a, rest, whole, part, opt);
+    Json record;
+    primitives.push_back(draco ? add_draco_body_mesh(d, a, r, opt, record) : add_plain_body_mesh(d, r, opt));
+    records.push_back(record);
+  }
   if (!draco) {
     d.used.erase(std::find(d.used.begin(), d.used.end(), "KHR_draco_mesh_compression"));
     d.required.erase(std::find(d.required.begin(), d.required.end(), "KHR_draco_mesh_compression"));
   }
-  d.meshes.push_back({{"name", "body"}, {"primitives", Json::array({primitive})}});
-  const int F = b.num_faces;
-  if (opt.lossless) {
-    d.file_face.resize(size_t(F));
-    for (int f = 0; f < F; ++f) d.file_face[size_t(f)] = f;
-    d.file_corner.assign(size_t(F), 0);
-  } else {
-    const CanonicalFaces c = canonical_faces(b.faces.data(), F);
-    d.file_face.resize(size_t(F));
-    d.file_corner.resize(size_t(F));
-    for (int k = 0; k < F; ++k) d.file_face[size_t(c.order[size_t(k)])] = k;
-    // Body corner 0 sits at canonical corner (3 - rotation) mod 3.
-    for (int f = 0; f < F; ++f) d.file_corner[size_t(f)] = uint8_t((3 - c.rotation[size_t(f)]) % 3);
-  }
+  d.meshes.push_back({{"name", "body"}, {"primitives", primitives}});
+  bind_face_order(d, b, opt.lossless);
   Json& body = d.ext["body"];
+  if (draco) body["draco"] = records[0];
   body["mesh"] = 0;
   body["vertexCount"] = b.num_verts;
-  body["faceCount"] = F;
-  body["skinSets"] = r.skin.sets;
+  body["faceCount"] = b.num_faces;
+  body["skinSets"] = whole.skin.sets;
   body["shapeBaked"] = true;
   // Whether the trainer's LBS applied pose correctives (a body with posedirs always does),
   // and which topology supplies them when they are not embedded.
   body["trainedWithPoseCorrectives"] = !b.posedirs.empty();
   body["topologyCrc32"] = glb::crc32(reinterpret_cast<const uint8_t*>(b.faces.data()), b.faces.size() * 4);
-  if (b.has_garment()) {  // the garment's part of the one mesh, and the Gaussians it carries
+  if (b.has_garment()) {  // the garment's primitive, and the Gaussians it carries
     const auto& gf = a.gaussians.face;
     const long carried = std::count_if(gf.begin(), gf.end(), [&](int32_t f) { return f >= b.garment_first_face; });
-    body["garment"] = {{"firstVertex", b.garment_first_vert}, {"firstFace", b.garment_first_face},
+    body["garment"] = {{"primitive", 1}, {"firstVertex", b.garment_first_vert}, {"firstFace", b.garment_first_face},
                        {"chart", b.garment_chart}, {"gaussians", carried}};
+    if (draco) body["garment"]["draco"] = records[1];
   }
 }
 

@@ -22,7 +22,9 @@ inline constexpr const char* kAvatarExtension = "HAHA_gaussian_avatar";
 // Version 3: Draco-free meshes, the public _BODY_VERTEX attribute, Gaussians bound to the
 // canonical face order (any tool may reorder the mesh), weights summing exactly to one,
 // skinned KHR_gaussian_splatting splats.
-inline constexpr int kAvatarFormatVersion = 3;
+// Version 4: a garment is primitive 1 of the body mesh (version 3 kept it inside primitive
+// 0); the body's faces are primitive 0's triangles followed by primitive 1's.
+inline constexpr int kAvatarFormatVersion = 4;
 inline constexpr int kOldestAvatarFormatVersion = 1;  // readers still load version 1
 
 // Draco quantization bits per Gaussian attribute; 0 = raw float32 (bit-exact).

@@ -86,6 +86,7 @@ class AvatarReader {
     pose_correctives();
     subject();
     gaussians();
+    garment_faces_last();
     texture();
     splats();
     summary();
@@ -93,6 +94,15 @@ class AvatarReader {
   }
 
  private:
+  // The body mesh's per-glTF-vertex arrays, from Draco or from accessors.
+  struct MeshArrays {
+    std::vector<float> pos, uv, uv_src;                // (Vg, 3), (Vg, 2), lossless: (Vg, 2)
+    std::vector<int64_t> source;                       // body vertex of each glTF vertex
+    std::vector<int32_t> faces;                        // (F, 3) glTF vertices
+    std::vector<std::vector<int64_t>> joints;          // per set (Vg, 4)
+    std::vector<std::vector<float>> weights;           // per set (Vg, 4), decoded
+  };
+
   int draco_id(const Json& map, const std::string& name, const std::string& what) const {
     return int(as_int(member(map, name.c_str(), where_, what), where_, what + "." + name, 0, 1 << 20));
   }
@@ -120,7 +130,8 @@ class AvatarReader {
 
   // The body mesh (Draco or plain accessors): rest vertices, faces, UVs (vertices split at
   // seams are merged back through _BODY_VERTEX), and the faces in the order the Gaussians
-  // name them.
+  // name them. Its primitives are one mesh: primitive 0's triangles, then a garment's
+  // (primitive 1, version 4).
   void body_mesh() {
     const Json& jb = *jb_;
     const int64_t mesh_index = rd_.integer(jb, "mesh", B, 0, kMaxCount);
@@ -130,20 +141,29 @@ class AvatarReader {
     const Json& mesh = element(root_, "meshes", mesh_index, where_);
     const Json& prims = member(mesh, "primitives", where_, "meshes[" + std::to_string(mesh_index) + "]");
     if (!prims.is_array() || prims.empty()) fail(where_, "body mesh: no primitives");
-    const Json& prim = prims[0];
-    P_ = "meshes[" + std::to_string(mesh_index) + "].primitives[0]";
-    if (const Json* mode = find_member(prim, "mode"); mode && as_int(*mode, where_, P_ + ".mode", 0, 6) != 4) {
-      fail(where_, P_ + ": not a triangle list (mode " + mode->dump() + ")");
-    }
-    pattrs_ = &member(prim, "attributes", where_, P_);
-    const Json* pext = find_member(prim, "extensions");
-    const Json* kdraco = pext ? find_member(*pext, "KHR_draco_mesh_compression") : nullptr;
+    if (prims.size() > 2) fail(where_, "body mesh: " + std::to_string(prims.size()) + " primitives (the body and at most a garment)");
     jd_ = find_member(jb, "draco");
-    if (info_.version < 3 && (!kdraco || !jd_)) fail(where_, P_ + ": not Draco-compressed (KHR_draco_mesh_compression missing)");
+    jg_ = find_member(jb, "garment");
+    if (jg_) {
+      const std::string G = B + ".garment";
+      info_.garment_first_vertex = int(rd_.integer(*jg_, "firstVertex", G, 1, V_ - 1));
+      info_.garment_first_face = int(rd_.integer(*jg_, "firstFace", G, 1, F_ - 1));
+      info_.garment_gaussians = int(rd_.integer(*jg_, "gaussians", G, 0, kMaxCount));
+    }
+    if (prims.size() > 1 && (!jg_ || info_.version < 4)) fail(where_, "body mesh: a second primitive, but no " + B + ".garment (version 4)");
     faces_in_file_order_ = info_.version < 3;
-    if (kdraco) draco_body_mesh(*kdraco);
-    else plain_body_mesh(prim);
-    info_.sizes.draco_mesh = kdraco != nullptr;
+    MeshArrays all;
+    for (size_t p = 0; p < prims.size(); ++p) {
+      // Faces of this primitive: the garment's from body.garment.firstFace on.
+      const int64_t first = p == 0 ? 0 : info_.garment_first_face, last = prims.size() == 1 || p == 1 ? F_ : info_.garment_first_face;
+      mesh_primitive(prims[p], "meshes[" + std::to_string(mesh_index) + "].primitives[" + std::to_string(p) + "]", p, last - first);
+      append_primitive(all, m_);
+    }
+    m_ = std::move(all);
+    Vg_ = int(m_.source.size());
+    if (m_.pos.size() != size_t(Vg_) * 3 || m_.uv.size() != size_t(Vg_) * 2 || (!m_.uv_src.empty() && m_.uv_src.size() != size_t(Vg_) * 2)) {
+      fail(where_, "body mesh: its primitives disagree on their attributes");
+    }
     if (const Json* qb = jd_ ? find_member(*jd_, "quantizationBits") : nullptr) {
       if (qb->is_object())
         for (auto& [k, v] : qb->items()) info_.mesh_bits[k] = int(as_int(v, where_, B + ".draco.quantizationBits." + k, 0, 30));
@@ -152,13 +172,95 @@ class AvatarReader {
       fail(where_, "body mesh: " + std::to_string(m_.faces.size() / 3) + " faces, the file says " + std::to_string(F_));
     }
     if (Vg_ < V_) fail(where_, "body mesh: fewer glTF vertices than body vertices");
-    if (const Json* g = find_member(jb, "garment")) {  // informative: the mesh stays one
-      const std::string G = B + ".garment";
-      info_.garment_first_vertex = int(rd_.integer(*g, "firstVertex", G, 1, V_ - 1));
-      info_.garment_first_face = int(rd_.integer(*g, "firstFace", G, 1, F_ - 1));
-      info_.garment_gaussians = int(rd_.integer(*g, "gaussians", G, 0, kMaxCount));
-    }
+    if (jg_) garment_vertices_last();
+    body_arrays_from_mesh();
+  }
 
+  // One primitive (Draco or plain accessors) into m_, `faces` triangles expected; its
+  // Draco stream is named by body.draco (primitive 0) or body.garment.draco (primitive 1).
+  void mesh_primitive(const Json& prim, const std::string& path, size_t p, int64_t faces) {
+    P_ = path;
+    m_ = MeshArrays();
+    expected_faces_ = faces;
+    if (const Json* mode = find_member(prim, "mode"); mode && as_int(*mode, where_, P_ + ".mode", 0, 6) != 4) {
+      fail(where_, P_ + ": not a triangle list (mode " + mode->dump() + ")");
+    }
+    pattrs_ = &member(prim, "attributes", where_, P_);
+    const Json* pext = find_member(prim, "extensions");
+    const Json* kdraco = pext ? find_member(*pext, "KHR_draco_mesh_compression") : nullptr;
+    jrec_ = p == 0 ? jd_ : find_member(*jg_, "draco");
+    if (p == 0 && info_.version < 3 && (!kdraco || !jd_)) fail(where_, P_ + ": not Draco-compressed (KHR_draco_mesh_compression missing)");
+    if (kdraco && !jrec_) rewritten_ = true;  // a tool re-encoded it: no stream of haha's
+    if (kdraco) draco_body_mesh(*kdraco);
+    else plain_body_mesh(prim);
+    if (p == 0) info_.sizes.draco_mesh = kdraco != nullptr;
+    if (int64_t(m_.faces.size()) != faces * 3) {
+      fail(where_, P_ + ": " + std::to_string(m_.faces.size() / 3) + " faces, the file says " + std::to_string(faces));
+    }
+  }
+
+  // Appends a primitive's arrays to the whole mesh's (its face indices shifted past the
+  // glTF vertices before it).
+  static void append_primitive(MeshArrays& all, const MeshArrays& p) {
+    const int32_t shift = int32_t(all.source.size());
+    auto cat = [](auto& to, const auto& from) { to.insert(to.end(), from.begin(), from.end()); };
+    cat(all.pos, p.pos);
+    cat(all.uv, p.uv);
+    cat(all.uv_src, p.uv_src);
+    cat(all.source, p.source);
+    for (int32_t c : p.faces) all.faces.push_back(c + shift);
+    all.joints.resize(p.joints.size());
+    all.weights.resize(p.weights.size());
+    for (size_t s = 0; s < p.joints.size(); ++s) cat(all.joints[s], p.joints[s]);
+    for (size_t s = 0; s < p.weights.size(); ++s) cat(all.weights[s], p.weights[s]);
+  }
+
+  // body.garment: its faces must use only its vertices (and the body's faces only the
+  // body's; version-3 edgebreaker files list them in any order, the face order the
+  // Gaussians name puts the garment's last: garment_faces_last); the glTF vertices are
+  // ordered body first (version 3 mixed seam duplicates), so the unpacked body's UVs are
+  // the body's, then the garment's (BodyModel::garment_first_uv).
+  void garment_vertices_last() {
+    const std::string G = B + ".garment";
+    const int64_t gv = info_.garment_first_vertex, gf = info_.garment_first_face;
+    const double chart = as_number(member(*jg_, "chart", where_, G), where_, G + ".chart");
+    if (!(chart > 0 && chart <= 0.5)) fail(where_, G + ".chart: not in (0, 0.5]");
+    int64_t garment_faces = 0;
+    for (size_t f = 0; f < m_.faces.size() / 3; ++f) {
+      int on = 0;
+      for (size_t k = 0; k < 3; ++k) on += m_.source[size_t(m_.faces[f * 3 + k])] >= gv;
+      if (on % 3) fail(where_, G + ": face " + std::to_string(f) + " joins the body's and the garment's vertices");
+      garment_faces += on / 3;
+    }
+    if (garment_faces != F_ - gf) fail(where_, G + ": " + std::to_string(garment_faces) + " faces on the garment's vertices, the file says " + std::to_string(F_ - gf));
+    std::vector<int32_t> order, at(static_cast<size_t>(Vg_));
+    for (int garment = 0; garment < 2; ++garment) {
+      for (int gi = 0; gi < Vg_; ++gi)
+        if ((m_.source[size_t(gi)] >= gv) == bool(garment)) {
+          at[size_t(gi)] = int32_t(order.size());
+          order.push_back(gi);
+        }
+      if (!garment) garment_first_uv_ = int(order.size());
+    }
+    auto permuted = [&](const auto& v, size_t comps) {
+      std::remove_cvref_t<decltype(v)> out(v.size());
+      for (size_t i = 0; i < order.size() && !v.empty(); ++i)
+        for (size_t k = 0; k < comps; ++k) out[i * comps + k] = v[size_t(order[i]) * comps + k];
+      return out;
+    };
+    m_.pos = permuted(m_.pos, 3);
+    m_.uv = permuted(m_.uv, 2);
+    m_.uv_src = permuted(m_.uv_src, 2);
+    m_.source = permuted(m_.source, 1);
+    for (auto& j : m_.joints) j = permuted(j, 4);
+    for (auto& w : m_.weights) w = permuted(w, 4);
+    for (int32_t& c : m_.faces) c = at[size_t(c)];
+    garment_chart_ = float(chart);
+  }
+
+  // The body model's arrays from the whole mesh's glTF vertices and faces, and where its
+  // garment starts.
+  void body_arrays_from_mesh() {
     BodyModel& body = a_.body;
     body.source = where_;
     body.num_verts = int(V_);
@@ -188,6 +290,12 @@ class AvatarReader {
         body.vt[size_t(gi) * 2 + 1] = 1.0f - m_.uv[size_t(gi) * 2 + 1];  // back to the body model's v-up UVs
       }
     }
+    if (jg_) {  // the unpacked avatar carries its garment as the trainer's did (body/garment.h)
+      body.garment_first_vert = info_.garment_first_vertex;
+      body.garment_first_face = info_.garment_first_face;
+      body.garment_first_uv = garment_first_uv_;
+      body.garment_chart = garment_chart_;
+    }
   }
 
   // The KHR_draco_mesh_compression stream into m_ (versions 1-2: the vertex map is the
@@ -196,40 +304,42 @@ class AvatarReader {
     const std::string K = P_ + ".KHR_draco_mesh_compression";
     const int64_t stream_view = rd_.integer(kdraco, "bufferView", K, 0, kMaxCount);
     glb::ByteSpan mesh_bytes;
-    if (jd_) {
-      if (rd_.integer(*jd_, "bufferView", B + ".draco", 0, kMaxCount) != stream_view) {
-        fail(where_, B + ".draco: bufferView differs from the primitive's Draco stream");
+    const std::string D = jrec_ == jd_ ? B + ".draco" : B + ".garment.draco";
+    if (jrec_) {
+      if (rd_.integer(*jrec_, "bufferView", D, 0, kMaxCount) != stream_view) {
+        fail(where_, D + ": bufferView differs from the primitive's Draco stream");
       }
-      mesh_bytes = rd_.view(*jd_, "bufferView", "crc32", B + ".draco");
+      mesh_bytes = rd_.view(*jrec_, "bufferView", "crc32", D);
     } else {
       mesh_bytes = glb::buffer_view(g_, int(stream_view), where_);  // rewritten by a tool: no checksum
     }
-    info_.sizes.mesh = mesh_bytes.size;
+    info_.sizes.mesh += mesh_bytes.size;
     const Json& pos_acc = element(root_, "accessors", as_int(member(*pattrs_, "POSITION", where_, P_ + ".attributes"), where_,
                                                              P_ + ".attributes.POSITION", 0, kMaxCount), where_);
     const int64_t gltf_verts = as_int(member(pos_acc, "count", where_, "POSITION accessor"), where_, "POSITION accessor.count", 1, kMaxCount);
-    const dracoio::Decoded dec(mesh_bytes.data, mesh_bytes.size, true, where_, "body mesh", gltf_verts, F_);
+    const dracoio::Decoded dec(mesh_bytes.data, mesh_bytes.size, true, where_, "body mesh", gltf_verts, expected_faces_);
     Vg_ = dec.num_points();
-    edgebreaker_ = dec.method() == dracoio::Method::edgebreaker;
+    edgebreaker_ = edgebreaker_ || dec.method() == dracoio::Method::edgebreaker;
     info_.sizes.edgebreaker = edgebreaker_;
     if (edgebreaker_ && info_.version < 2) fail(where_, "body mesh: edgebreaker-encoded, which version 1 files never are");
-    if (dec.num_faces() != F_) {
-      fail(where_, "body mesh: Draco stream has " + std::to_string(dec.num_faces()) + " faces, the file says " + std::to_string(F_));
+    if (dec.num_faces() != expected_faces_) {
+      fail(where_, P_ + ": Draco stream has " + std::to_string(dec.num_faces()) + " faces, the file says " + std::to_string(expected_faces_));
     }
     const Json& dattrs = member(kdraco, "attributes", where_, K);
     m_.pos = dec.floats(draco_id(dattrs, "POSITION", K), 3, "POSITION");
     m_.uv = draco_values(dec, dattrs, "TEXCOORD_0", 2);
-    if (jd_) {
-      if (const Json* m = find_member(*jd_, "method")) {
-        const std::string method = as_string(*m, where_, B + ".draco.method");
+    if (jrec_) {
+      if (const Json* m = find_member(*jrec_, "method")) {
+        const std::string method = as_string(*m, where_, D + ".method");
         if (method != (edgebreaker_ ? "edgebreaker" : "sequential")) {
-          fail(where_, B + ".draco.method: says '" + method + "' but the Draco stream is " + (edgebreaker_ ? "edgebreaker" : "sequential"));
+          fail(where_, D + ".method: says '" + method + "' but the Draco stream is " + (edgebreaker_ ? "edgebreaker" : "sequential"));
         }
       }
     }
-    const Json* mpriv = jd_ ? find_member(*jd_, "attributes") : nullptr;
+    const Json* mpriv = jrec_ ? find_member(*jrec_, "attributes") : nullptr;
     if (info_.version < 3) {
-      m_.source = dec.ints(draco_id(member(*jd_, "attributes", where_, B + ".draco"), "BODY_VERTEX", B + ".draco.attributes"), 1, "BODY_VERTEX");
+      if (!jrec_) fail(where_, B + ".draco: missing");
+      m_.source = dec.ints(draco_id(member(*jrec_, "attributes", where_, D), "BODY_VERTEX", D + ".attributes"), 1, "BODY_VERTEX");
     } else {
       const int id = draco_id(dattrs, "_BODY_VERTEX", K);
       if (dec.is_float(id)) {  // exact integers in float (large meshes, or re-encoded plain files)
@@ -242,7 +352,7 @@ class AvatarReader {
       }
     }
     if (mpriv && find_member(*mpriv, "TEXCOORD_SOURCE")) {
-      m_.uv_src = dec.floats(draco_id(*mpriv, "TEXCOORD_SOURCE", B + ".draco.attributes"), 2, "TEXCOORD_SOURCE");
+      m_.uv_src = dec.floats(draco_id(*mpriv, "TEXCOORD_SOURCE", D + ".attributes"), 2, "TEXCOORD_SOURCE");
     }
     m_.faces = dec.faces();
     for (int64_t s = 0; s < skin_sets_; ++s) {
@@ -323,7 +433,6 @@ class AvatarReader {
     };
     for (auto& [k, v] : pattrs_->items()) add_view_of(v, P_ + ".attributes." + k);
     if (const Json* ind = find_member(prim, "indices")) add_view_of(*ind, P_ + ".indices");
-    info_.sizes.mesh = 0;
     for (int64_t v : views) info_.sizes.mesh += glb::buffer_view(g_, int(v), where_).size;
   }
 
@@ -564,7 +673,7 @@ class AvatarReader {
     }
     // Faces in the file's order hold only while the mesh is the one haha wrote (body.draco
     // names its stream and checksum); a tool that rewrote it may have reordered them.
-    if (faces_in_file_order_ && !jd_) {
+    if (faces_in_file_order_ && (!jd_ || rewritten_)) {
       fail(where_, G + ".faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no " + B +
                        ".draco); repack without --lossless for files that tools may rewrite");
     }
@@ -630,6 +739,18 @@ class AvatarReader {
     }
     if (info_.gaussian_bits["OPACITY"] > 0)  // quantization can step just outside [0, 1]
       for (float& o : bg.opacity) o = std::isfinite(o) ? std::min(1.0f, std::max(0.0f, o)) : o;
+  }
+
+  // In the face order the Gaussians name (the file's, or canonical: sorted by smallest
+  // vertex) a garment's faces come after the body's, where BodyModel::garment_first_face says.
+  void garment_faces_last() {
+    const BodyModel& body = a_.body;
+    if (!body.has_garment()) return;
+    for (size_t c = 0; c < body.faces.size(); ++c) {
+      if ((body.faces[c] >= body.garment_first_vert) != (int64_t(c / 3) >= body.garment_first_face)) {
+        fail(where_, B + ".garment: face " + std::to_string(c / 3) + " of the Gaussians' face order is not where the garment's faces are");
+      }
+    }
   }
 
   // Appends one point cloud of `count` Gaussians (scales still as stored) to the avatar's,
@@ -798,14 +919,13 @@ class AvatarReader {
   const Json* jb_ = nullptr;      // its "body"
   const Json* pattrs_ = nullptr;  // the body primitive's attributes
   const Json* jd_ = nullptr;      // body.draco (absent: a plain mesh, or a mesh rewritten by a tool)
-  // The body mesh's per-glTF-vertex arrays, from Draco or from accessors.
-  struct MeshArrays {
-    std::vector<float> pos, uv, uv_src;                // (Vg, 3), (Vg, 2), lossless: (Vg, 2)
-    std::vector<int64_t> source;                       // body vertex of each glTF vertex
-    std::vector<int32_t> faces;                        // (F, 3) glTF vertices
-    std::vector<std::vector<int64_t>> joints;          // per set (Vg, 4)
-    std::vector<std::vector<float>> weights;           // per set (Vg, 4), decoded
-  } m_;
+  const Json* jg_ = nullptr;      // body.garment (absent: no garment)
+  const Json* jrec_ = nullptr;    // the Draco record of the primitive being read (body.draco, body.garment.draco)
+  bool rewritten_ = false;        // a Draco primitive without its record: re-encoded by a tool
+  int64_t expected_faces_ = 0;    // triangles of the primitive being read
+  int garment_first_uv_ = 0;      // glTF vertices of the body, before the garment's
+  float garment_chart_ = 0;
+  MeshArrays m_;
   const Json* skin_ = nullptr;
   const Json* gids_ = nullptr;    // the Gaussians' Draco attribute ids
   std::string P_;                 // JSON path of the body primitive

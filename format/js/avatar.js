@@ -1,9 +1,10 @@
-// A HAHA avatar (.glb + HAHA_gaussian_avatar, format/spec.md, versions 1 to 3) decoded in
+// A HAHA avatar (.glb + HAHA_gaussian_avatar, format/spec.md, versions 1 to 4) decoded in
 // JavaScript, and its reposing, written to match the C++ loader (format/avatar_unpack.cpp,
 // format/avatar_loader.cpp, body/lbs.cpp, body/face_frames.h) step by step, in float64:
 //
 //   body mesh:     Draco (KHR_draco_mesh_compression) or, version 3, plain accessors (any
-//                  layout glTF allows: byteStride, normalized integers, no indices)
+//                  layout glTF allows: byteStride, normalized integers, no indices);
+//                  version 4: a garment's primitive 1 appended to primitive 0
 //   rest vertices: the body mesh's first glTF vertex of each body vertex (_BODY_VERTEX;
 //                  versions 1-2: the private Draco attribute BODY_VERTEX)
 //   weights:       all JOINTS_n / WEIGHTS_n sets summed per body vertex; version 1-2
@@ -25,7 +26,7 @@
 import { Glb } from './glb.js';
 
 export const NUM_JOINTS = 55;
-export const VERSION = 3, OLDEST_VERSION = 1;  // format versions this reader implements
+export const VERSION = 4, OLDEST_VERSION = 1;  // format versions this reader implements
 // extensionsRequired entries a file may list (as format/avatar_unpack.cpp accepts them).
 const SUPPORTED_REQUIRED = new Set(['KHR_draco_mesh_compression', 'EXT_texture_webp', 'KHR_materials_unlit', 'HAHA_gaussian_avatar']);
 const ARRAY_OF = { 5120: 'Int8Array', 5121: 'Uint8Array', 5122: 'Int16Array', 5123: 'Uint16Array', 5125: 'Uint32Array', 5126: 'Float32Array' };
@@ -120,6 +121,35 @@ function gaussianRotations(g, jg, N, fail) {
   return rot;
 }
 
+// The body mesh's primitives as one mesh (the body's, then a garment's): arrays appended,
+// each primitive's indices shifted past the glTF vertices before it.
+function concatPrimitives(parts) {
+  const cat = (arrays) => {
+    const out = new arrays[0].constructor(arrays.reduce((n, a) => n + a.length, 0));
+    let at = 0;
+    for (const a of arrays) { out.set(a, at); at += a.length; }
+    return out;
+  };
+  const index = cat(parts.map((p) => Int32Array.from(p.index)));
+  let at = 0, shift = 0;
+  for (const p of parts) {
+    for (let i = 0; i < p.index.length; i++) index[at + i] += shift;
+    at += p.index.length;
+    shift += p.source.length;
+  }
+  const sets = parts[0].joints.length;
+  const joints = [], weights = [];
+  for (let s = 0; s < sets; s++) {
+    joints.push(cat(parts.map((p) => Int32Array.from(p.joints[s]))));
+    weights.push(cat(parts.map((p) => Float32Array.from(p.weights[s]))));
+  }
+  return {
+    pos: cat(parts.map((p) => Float32Array.from(p.pos))), uv: cat(parts.map((p) => Float32Array.from(p.uv))),
+    source: cat(parts.map((p) => Int32Array.from(p.source))), index, joints, weights,
+    edgebreaker: parts.some((p) => p.edgebreaker),
+  };
+}
+
 export class Avatar {
   static async load(buffer, decode, name = 'avatar.glb') {
     const a = new Avatar();
@@ -173,18 +203,28 @@ export class Avatar {
   }
 
   // --- body mesh: Draco (any version) or plain accessors (version 3) ---
+  // Its primitives are one mesh: primitive 0's triangles, then a garment's (primitive 1,
+  // version 4, its Draco stream named by body.garment.draco).
   async _readBodyMesh(sets, decode, fail) {
     const glb = this.glb, root = glb.json, ext = this.ext, jb = ext.body;
     const mesh = (root.meshes || [])[jb.mesh];
     if (!mesh || !mesh.primitives || !mesh.primitives.length) fail(`body mesh ${jb.mesh}: missing or without primitives`);
-    const prim = mesh.primitives[0];
-    if (prim.mode !== undefined && prim.mode !== 4) fail(`body mesh: not a triangle list (mode ${prim.mode})`);
-    const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
-    const jd = jb.draco;  // absent: a plain mesh, or a mesh rewritten by a tool
-    if (ext.version < 3 && (!kd || !jd)) fail('body mesh: not Draco-compressed (KHR_draco_mesh_compression missing)');
-    const m = kd ? await this._dracoBody(glb, prim, kd, jd, sets, decode, fail) : this._plainBody(glb, prim, sets, fail);
-    this.meshDraco = !!kd;
-    return m;
+    const prims = mesh.primitives;
+    if (prims.length > 2) fail(`body mesh: ${prims.length} primitives (the body and at most a garment)`);
+    if (prims.length > 1 && (!jb.garment || ext.version < 4)) fail(`body mesh: a second primitive, but no ${EXT}.body.garment (version 4)`);
+    const parts = [];
+    this.meshRewritten = false;
+    for (let p = 0; p < prims.length; p++) {
+      const prim = prims[p];
+      if (prim.mode !== undefined && prim.mode !== 4) fail(`body mesh: not a triangle list (mode ${prim.mode})`);
+      const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
+      const jd = p === 0 ? jb.draco : jb.garment.draco;  // absent: a plain mesh, or a mesh rewritten by a tool
+      if (ext.version < 3 && (!kd || !jd)) fail('body mesh: not Draco-compressed (KHR_draco_mesh_compression missing)');
+      if (kd && !jd) this.meshRewritten = true;
+      parts.push(kd ? await this._dracoBody(glb, prim, kd, jd, sets, decode, fail) : this._plainBody(glb, prim, sets, fail));
+      if (p === 0) this.meshDraco = !!kd;
+    }
+    return parts.length === 1 ? parts[0] : concatPrimitives(parts);
   }
 
   // The rest vertices (the first glTF vertex of each body vertex) and the faces as body
@@ -363,7 +403,7 @@ export class Avatar {
     } else if (ext.version >= 3) {
       fail('gaussians.faceOrder: missing');
     }
-    if (fileOrder && !jd) {
+    if (fileOrder && (!jd || this.meshRewritten)) {
       fail(`gaussians.faceOrder: the Gaussians name faces in the file's order, but the mesh was rewritten (no ${EXT}.body.draco)`);
     }
     this.faceOrder = fileOrder ? 'file' : 'canonical';

@@ -100,17 +100,20 @@ class Viewer {
     this.frame = ((this.frame % this.motion.frames.length) + this.motion.frames.length) % this.motion.frames.length;
 
     const skinned = this.layer.skinnedMesh;
+    const parts = this.layer.bodyParts;  // the body's primitive, then a garment's
     gltf.scene.traverse((o) => {
-      if ((o.isMesh || o.isPoints) && o !== skinned && o !== this.layer) o.visible = false;  // e.g. the optional KHR_gaussian_splatting points
+      if ((o.isMesh || o.isPoints) && !parts.includes(o) && o !== this.layer) o.visible = false;  // e.g. the optional KHR_gaussian_splatting points
     });
     this.gltfScene = gltf.scene;
     this.bones = skinned.skeleton.bones;
     this.rootRest = this.bones[0].position.clone();
     this.texture = await textureOf(a);
     const material = this.r.meshMaterialFor(this.texture);
-    skinned.material = material;
-    skinned.frustumCulled = false;
-    this.skinned = skinned;
+    for (const part of parts) {
+      part.material = material;
+      part.frustumCulled = false;
+    }
+    this.skinned = parts;
 
     // Exact path: CPU LBS of the loader, written into the glTF vertices through BODY_VERTEX.
     this.positions = new Float32Array(3 * a.Vg);
@@ -182,7 +185,7 @@ class Viewer {
     this.gltfScene.updateMatrixWorld(true);  // the plugin's layer reposes from the bones
     this.layer.update();
     this.exactMesh.update(a.posedGltfVertices(this.positions));
-    this.skinned.visible = this.skinMode === 'gltf';
+    for (const part of this.skinned) part.visible = this.skinMode === 'gltf';
     this.exactMesh.visible = this.skinMode === 'exact';
     const t1 = performance.now();
     const cam = this.currentCamera();

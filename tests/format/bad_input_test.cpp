@@ -129,8 +129,8 @@ void as_old_version(Json& j, int version) {
 }
 
 TEST(FormatBadInput, WrongExtensionVersion) {
-  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 4; }),
-               "unsupported version 4");
+  expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 5; }),
+               "unsupported version 5");
   expect_error(edited(fx().lossy, [](Json& j, auto&) { j["extensions"]["HAHA_gaussian_avatar"]["version"] = 0; }),
                "unsupported version 0");
   // Version 1 had a joint regressor in every file.

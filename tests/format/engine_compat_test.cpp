@@ -91,7 +91,7 @@ TEST(FormatEngineCompat, PlainMeshNeedsNoExtensionAndReposesLikeTheDracoFile) {
   for (const Json& e : g.json["extensionsUsed"]) EXPECT_NE(e.get<std::string>(), "KHR_draco_mesh_compression");
   EXPECT_FALSE(g.json["meshes"][0]["primitives"][0].contains("extensions"));
   EXPECT_FALSE(g.json["extensions"]["HAHA_gaussian_avatar"]["body"].contains("draco"));
-  EXPECT_EQ(g.json["asset"]["generator"].get<std::string>(), "haha pack (HAHA_gaussian_avatar v3)");
+  EXPECT_EQ(g.json["asset"]["generator"].get<std::string>(), "haha pack (HAHA_gaussian_avatar v4)");
   EXPECT_TRUE(ds.draco_mesh);
   EXPECT_FALSE(ps.draco_mesh);
   EXPECT_GT(ps.mesh, ds.mesh);  // the price of no Draco

@@ -121,6 +121,22 @@ TEST_F(FormatValidator, EveryPackVariantHasZeroErrors) {
   expect_no_errors(write("plain_normals.glb", a, plain), F);
 }
 
+// A garment is primitive 1 of the body mesh (format/spec.md, body.garment), in plain and
+// Draco packs: a standard skinned primitive the validator finds no fault with, its
+// triangles counted with the body's.
+TEST_F(FormatValidator, GarmentPrimitiveHasZeroErrors) {
+  const Avatar a = test::with_test_garment(test::without_degenerate_face(test::make_test_avatar(200, 2, 64, 64)));
+  const int F = a.body.num_faces;
+  PackOptions plain;
+  plain.mesh_compression = MeshCompression::none;
+  for (const auto& [name, o] : {std::pair<const char*, PackOptions>{"garment.glb", PackOptions{}}, {"garment_plain.glb", plain}}) {
+    const fs::path p = write(name, a, o);
+    expect_no_errors(p, F);
+    const Report r = validate(p);
+    EXPECT_EQ(r.json["info"].value("drawCallCount", -1), 2) << name << ": the body's and the garment's primitives";
+  }
+}
+
 TEST_F(FormatValidator, RealisticAvatarHasZeroErrors) {
   const Avatar a = test::make_realistic_avatar(3000, 256);
   expect_no_errors(write("realistic.glb", a, PackOptions{}), a.body.num_faces);
@@ -193,6 +209,7 @@ TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
   lod.lod_tiers = 2;
   lod.mesh_compression = MeshCompression::none;
   const fs::path r = write("schema_lod.glb", test::without_degenerate_face(test::make_test_avatar(50)), lod);
+  const fs::path g = write("schema_garment.glb", test::with_test_garment(test::without_degenerate_face(test::make_test_avatar(50))), PackOptions{});
   const fs::path script = dir_ / "check.py";
   std::ofstream(script) << "import json, struct, sys, jsonschema\n"
                            "schema = json.load(open(sys.argv[1]))\n"
@@ -201,7 +218,7 @@ TEST_F(FormatValidator, ExtensionObjectMatchesTheJsonSchema) {
                            "    n = struct.unpack('<I', b[12:16])[0]\n"
                            "    jsonschema.validate(json.loads(b[20:20 + n])['extensions']['HAHA_gaussian_avatar'], schema)\n";
   const std::string cmd = "python3 " + quote(script) + " " + quote(kRepo / "format/haha_avatar.schema.json") + " " +
-                          quote(p) + " " + quote(q) + " " + quote(r);
+                          quote(p) + " " + quote(q) + " " + quote(r) + " " + quote(g);
   EXPECT_EQ(std::system(cmd.c_str()), 0);
 }
 

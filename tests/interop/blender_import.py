@@ -5,7 +5,8 @@
 # mesh with the textured material (its image loaded); an armature of the 55 SMPL-X joints; the
 # mesh skinned to it (vertex groups + Armature modifier); rotating left_shoulder moves the
 # vertices skinned to the left arm and leaves every vertex without a left-arm weight where it
-# was (evaluated mesh). Exit 0 pass, 1 fail (the failed checks printed).
+# was (evaluated mesh); a garment primitive (format version 4) comes in skinned with the body.
+# Exit 0 pass, 1 fail (the failed checks printed).
 import json
 import math
 import struct
@@ -130,6 +131,43 @@ if on_arm and off_arm:
 pb.rotation_quaternion = Quaternion()
 back = evaluated_positions()
 check(max((b - r).length for b, r in zip(back, rest)) < 1e-6, "the rest pose comes back")
+
+
+# A garment (format version 4: the body mesh's primitive 1) comes in with the body, skinned
+# to the same armature: rotating left_hip moves the garment's vertices weighted to the left
+# leg and leaves those without a left-leg weight where they were.
+def garment_checks():
+    ext = gltf.get("extensions", {}).get("HAHA_gaussian_avatar", {})
+    if "garment" not in ext.get("body", {}):
+        return
+    prims = gltf["meshes"][ext["body"]["mesh"]]["primitives"]
+    check(len(prims) == 2, f"the garment is the body mesh's second primitive ({len(prims)} primitives)")
+    counts = [gltf["accessors"][p["attributes"]["POSITION"]]["count"] for p in prims]
+    check(len(body.data.vertices) == sum(counts),
+          f"both primitives imported into the body mesh ({len(body.data.vertices)} vertices, primitives {counts})")
+    if failures:
+        return
+    garment = range(counts[0], sum(counts))
+    check(all(len(body.data.vertices[i].groups) > 0 for i in garment), f"every garment vertex is skinned ({len(garment)})")
+    leg_bones = {b.name for b in bones["left_hip"].children_recursive} | {"left_hip"}
+    leg_weight = {i: sum(g.weight for g in body.data.vertices[i].groups if groups.get(g.group) in leg_bones) for i in garment}
+    hip = arm.pose.bones["left_hip"]
+    hip.rotation_mode = "QUATERNION"
+    hip.rotation_quaternion = Quaternion((1.0, 0.0, 0.0), math.radians(-30.0))
+    posed = evaluated_positions()
+    hip.rotation_quaternion = Quaternion()
+    on_leg = [i for i in garment if leg_weight[i] > 0.2]
+    off_leg = [i for i in garment if leg_weight[i] == 0.0]
+    moved = {i: (posed[i] - rest[i]).length for i in garment}
+    print(f"left_hip rotated: {len(on_leg)} garment vertices on the left leg moved "
+          f"{min([moved[i] for i in on_leg] or [0]) * 1000:.2f} mm or more; {len(off_leg)} without a left-leg weight "
+          f"moved at most {max([moved[i] for i in off_leg] or [0]) * 1000:.6f} mm")
+    check(len(on_leg) > 0, "garment vertices weighted to the left leg")
+    check(all(moved[i] > 1e-3 for i in on_leg), "they move with the leg (> 1 mm)")
+    check(all(moved[i] < 1e-6 for i in off_leg), "garment vertices without a left-leg weight stay")
+
+
+garment_checks()
 
 print("PASS" if not failures else f"FAILED: {len(failures)} check(s)")
 sys.exit(1 if failures else 0)

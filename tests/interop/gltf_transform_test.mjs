@@ -12,6 +12,8 @@
 //      the arm raised): passes at >= --min-psnr (60 dB) on every frame; the written JSON checked
 //      (no body.draco, fresh checksums, _BODY_VERTEX kept, indices followed, KHR_gaussian_splatting
 //      kept, extensionsRequired only with Draco);
+//   also an avatar trained with a skirt (its garment the body mesh's second primitive) written
+//   plain and Draco-re-encoded;
 //   4. without the extension registered glTF-Transform drops it and haha rejects the result; a
 //      version-2 file is refused on write with a one-line error.
 // Exit codes: 0 pass, 1 fail, 77 skip (node_modules of format/js/gltf-transform missing).
@@ -106,11 +108,15 @@ function checkWritten(file, { draco, splats }) {
   const required = json.extensionsRequired || [];
   if (draco && !required.includes('KHR_draco_mesh_compression')) fail(`${file}: Draco mesh but KHR_draco_mesh_compression not required`);
   if (!draco && required.length) fail(`${file}: plain mesh but extensionsRequired ${JSON.stringify(required)}`);
-  const prim = json.meshes[ext.body.mesh].primitives[0];
-  if (!('_BODY_VERTEX' in prim.attributes)) fail(`${file}: _BODY_VERTEX lost`);
-  else if (![5121, 5123, 5125].includes(json.accessors[prim.attributes._BODY_VERTEX].componentType)) fail(`${file}: _BODY_VERTEX is not unsigned integer`);
-  const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
-  if (draco && !(kd && '_BODY_VERTEX' in kd.attributes)) fail(`${file}: _BODY_VERTEX not in the Draco stream`);
+  const prims = json.meshes[ext.body.mesh].primitives;  // the body's, then a garment's (version 4)
+  if (ext.body.garment && ext.body.garment.draco) fail(`${file}: body.garment.draco was kept`);
+  if (prims.length !== (ext.body.garment ? 2 : 1)) fail(`${file}: ${prims.length} body primitives`);
+  for (const prim of prims) {
+    if (!('_BODY_VERTEX' in prim.attributes)) fail(`${file}: _BODY_VERTEX lost`);
+    else if (![5121, 5123, 5125].includes(json.accessors[prim.attributes._BODY_VERTEX].componentType)) fail(`${file}: _BODY_VERTEX is not unsigned integer`);
+    const kd = prim.extensions && prim.extensions.KHR_draco_mesh_compression;
+    if (draco && !(kd && '_BODY_VERTEX' in kd.attributes)) fail(`${file}: _BODY_VERTEX not in the Draco stream`);
+  }
   if (json.nodes[ext.body.node].mesh !== ext.body.mesh || json.nodes[ext.body.node].skin !== ext.body.skin) {
     fail(`${file}: body.node ${ext.body.node} does not hold body.mesh / body.skin`);
   }
@@ -155,12 +161,21 @@ async function bodyMesh(file) {
   const { json } = readGlb(file);
   const ext = json.extensions.HAHA_gaussian_avatar;
   const doc = await gtIO.read(file);
-  const prim = doc.getRoot().listMeshes()[ext.body.mesh].listPrimitives()[0];
+  const faces = [];
+  const V = ext.body.vertexCount;
+  const position = new Float64Array(3 * V);
+  const weights = Array.from({ length: V }, () => new Map());
+  // Every primitive (the body's, then a garment's): _BODY_VERTEX names vertices of the whole mesh.
+  for (const prim of doc.getRoot().listMeshes()[ext.body.mesh].listPrimitives()) primitiveMesh(prim, faces, position, weights);
+  faces.sort((p, q) => p.key[0] - q.key[0] || p.key[1] - q.key[1] || p.key[2] - q.key[2]);
+  return { faces, position, weights };
+}
+
+function primitiveMesh(prim, faces, position, weights) {
   const bv = prim.getAttribute('_BODY_VERTEX').getArray();
   const pos = prim.getAttribute('POSITION').getArray();
   const uv = prim.getAttribute('TEXCOORD_0');
   const idx = prim.getIndices().getArray();
-  const faces = [];
   for (let f = 0; f < idx.length / 3; f++) {
     const c = [idx[3 * f], idx[3 * f + 1], idx[3 * f + 2]];
     const b = c.map((i) => bv[i]);
@@ -168,10 +183,6 @@ async function bodyMesh(file) {
     const cc = [c[r], c[(r + 1) % 3], c[(r + 2) % 3]];
     faces.push({ key: cc.map((i) => bv[i]), uv: cc.map((i) => uv.getElement(i, [])) });
   }
-  faces.sort((p, q) => p.key[0] - q.key[0] || p.key[1] - q.key[1] || p.key[2] - q.key[2]);
-  const V = ext.body.vertexCount;
-  const position = new Float64Array(3 * V);
-  const weights = Array.from({ length: V }, () => new Map());
   for (let i = 0; i < bv.length; i++) {
     for (let k = 0; k < 3; k++) position[3 * bv[i] + k] = pos[3 * i + k];
     if (weights[bv[i]].size) continue;
@@ -180,7 +191,6 @@ async function bodyMesh(file) {
       for (let k = 0; k < 4; k++) if (w[k]) weights[bv[i]].set(j[k], (weights[bv[i]].get(j[k]) || 0) + w[k]);
     }
   }
-  return { faces, position, weights };
 }
 // Largest differences of the written body mesh from the input's (Infinity: faces differ).
 function compareMeshes(a, b) {
@@ -231,6 +241,19 @@ try {
     }
     console.log(`avatars: ${avatar}, ${avatarNone} (${times.map(([k, s]) => `${k} ${s.toFixed(1)} s`).join(', ')})`);
   }
+  // The avatar with a skirt (format version 4: the garment the body mesh's second primitive),
+  // unless --avatar-garment is given.
+  let avatarGarment = opts['avatar-garment'] && path.resolve(opts['avatar-garment']);
+  if (!avatarGarment) {
+    const skirt = `${work}/run_skirt`;
+    if (!fs.existsSync(`${work}/data/dataset.json`)) haha(['synth', '--out', `${work}/data`, '--frames', '8', '--test-frames', '2', '--size', '64']);
+    const s = haha(['train', '--data', `${work}/data`, '--out', skirt, '--preset', 'tiny', 'resolution=64', 's1.steps=50',
+      's1.densify.from=10', 's1.densify.until=40', 's1.densify.every=20', 's2.steps=30', 's2.texture_size=64', 's3.steps=30',
+      's3.prune_every=20', 'log_every=1000', 's0.garment.mode=skirt']);
+    avatarGarment = `${work}/avatar_garment.glb`;
+    haha(['pack', skirt, '--out', avatarGarment]);
+    console.log(`avatar with a skirt: ${avatarGarment} (train ${s.toFixed(1)} s)`);
+  }
   // What haha pack writes (spec section 2): _BODY_VERTEX unsigned short / int, plain or Draco.
   for (const f of [avatar, avatarNone]) {
     const { json } = readGlb(f);
@@ -249,6 +272,8 @@ try {
     { name: 'plain_to_plain', input: avatarNone, args: ['--mesh-compression', 'none'], draco: false, splats: false },
     { name: 'plain_to_draco', input: avatarNone, args: ['--mesh-compression', 'draco', '--reorder'], draco: true, splats: false },
     { name: 'plain_to_draco_sequential', input: avatarNone, args: ['--mesh-compression', 'draco', '--draco-method', 'sequential'], draco: true, splats: false },
+    { name: 'garment_to_plain', input: avatarGarment, args: ['--mesh-compression', 'none', '--reorder'], draco: false, splats: false },
+    { name: 'garment_to_draco', input: avatarGarment, args: ['--mesh-compression', 'draco', '--reorder'], draco: true, splats: false },
   ];
   const refs = new Map();
   for (const c of cases) {

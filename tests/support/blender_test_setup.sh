@@ -3,9 +3,11 @@
 #                                when Blender or its numpy is missing, then makes an empty WORKDIR
 #   tiny_avatar HAHA WORKDIR OUT.glb [haha pack options]
 #                                the tiny trained avatar of the interop tests, packed into OUT.glb
-#   given_or_tiny_avatar HAHA WORKDIR [AVATAR.glb]
+#                                (TINY_TRAIN_EXTRA: more `haha train` key=value settings)
+#   given_or_tiny_avatar HAHA WORKDIR [AVATAR.glb | --garment]
 #                                prints AVATAR.glb, or without one makes WORKDIR/avatar.glb
-#                                (tiny_avatar; its run stays in WORKDIR/run) and prints that
+#                                (tiny_avatar; its run stays in WORKDIR/run) and prints that;
+#                                --garment: the tiny avatar trained with a skirt
 # Blender is not part of scripts/install-deps.sh (it is large).
 blender="${HAHA_BLENDER:-blender}"
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
@@ -28,16 +30,17 @@ tiny_avatar() {
   "$haha" synth --out "$work/data" --frames 8 --test-frames 2 --size 64 >/dev/null
   "$haha" train --data "$work/data" --out "$work/run" --preset tiny resolution=64 s1.steps=50 s1.densify.from=10 \
     s1.densify.until=40 s1.densify.every=20 s2.steps=30 s2.texture_size=64 s3.steps=30 s3.prune_every=20 \
-    log_every=1000 >/dev/null
+    log_every=1000 ${TINY_TRAIN_EXTRA:-} >/dev/null
   "$haha" pack "$work/run" --out "$out" "$@" >/dev/null
 }
 
 given_or_tiny_avatar() {
   local haha="$1" work="$2" given="${3:-}"
-  if [ -n "$given" ]; then
+  if [ -n "$given" ] && [ "$given" != --garment ]; then
     echo "$given"
     return
   fi
+  [ "$given" = --garment ] && local TINY_TRAIN_EXTRA="s0.garment.mode=skirt"
   tiny_avatar "$haha" "$work" "$work/avatar.glb"
   echo "$work/avatar.glb"
 }

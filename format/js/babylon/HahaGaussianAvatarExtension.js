@@ -183,31 +183,51 @@ export class HahaGaussianLayer {
   }
 
   // exactBody: the body drawn from the CPU-posed vertices (every influence, pose correctives)
-  // instead of Babylon's GPU skinning; the skinned mesh is disabled.
+  // instead of Babylon's GPU skinning, one mesh per primitive of the body mesh (version 4:
+  // the body, then a garment; Babylon makes a node of several primitives a parent of one
+  // mesh each); the skinned meshes are disabled.
   makeExactBody() {
-    const B = this.B, body = this.bodyNode, a = this.avatar;
-    if (!body || !body.getVerticesData) throw new Error(`${EXTENSION_NAME}: the body node is not a mesh`);
-    if (body.getTotalVertices() !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${body.getTotalVertices()} vertices, the avatar ${a.Vg}`);
-    const mesh = new B.Mesh('HAHA_exact_body', this.scene);
+    const B = this.B, a = this.avatar;
+    const parts = this.bodyParts;
+    if (!parts.length) throw new Error(`${EXTENSION_NAME}: the body node is not a mesh`);
+    const total = parts.reduce((n, m) => n + m.getTotalVertices(), 0);
+    if (total !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${total} vertices, the avatar ${a.Vg}`);
     this._exactPositions = new Float32Array(3 * a.Vg);
-    mesh.setVerticesData(B.VertexBuffer.PositionKind, this._exactPositions, true);
-    const uv = body.getVerticesData(B.VertexBuffer.UVKind);
-    if (uv) mesh.setVerticesData(B.VertexBuffer.UVKind, uv, false);
-    mesh.setIndices(body.getIndices(), a.Vg);
-    mesh.material = body.material;
-    for (const k of ['sideOrientation', 'overrideMaterialSideOrientation']) if (k in body) mesh[k] = body[k];  // the loader's winding rule
-    mesh.parent = this.root;  // positions are in the avatar's glTF frame
-    mesh.alwaysSelectAsActiveMesh = true;
-    mesh.isPickable = false;
-    body.setEnabled(false);
-    this.exactBody = mesh;
+    this.exactParts = [];
+    let at = 0;
+    for (const part of parts) {
+      const n = part.getTotalVertices();
+      const mesh = new B.Mesh(`HAHA_exact_body_${this.exactParts.length}`, this.scene);
+      mesh.setVerticesData(B.VertexBuffer.PositionKind, this._exactPositions.subarray(3 * at, 3 * (at + n)), true);
+      const uv = part.getVerticesData(B.VertexBuffer.UVKind);
+      if (uv) mesh.setVerticesData(B.VertexBuffer.UVKind, uv, false);
+      mesh.setIndices(part.getIndices(), n);
+      mesh.material = part.material;
+      for (const k of ['sideOrientation', 'overrideMaterialSideOrientation']) if (k in part) mesh[k] = part[k];  // the loader's winding rule
+      mesh.parent = this.root;  // positions are in the avatar's glTF frame
+      mesh.alwaysSelectAsActiveMesh = true;
+      mesh.isPickable = false;
+      part.setEnabled(false);
+      this.exactParts.push({ mesh, first: at, count: n });
+      at += n;
+    }
+    this.exactBody = this.exactParts[0].mesh;
     this._sig.fill(NaN);
     this.update();
   }
 
   _updateExactBody() {
     const P = this.avatar.posedGltfVertices(this._exactPositions);
-    this.exactBody.updateVerticesData(this.B.VertexBuffer.PositionKind, P, false, false);
+    for (const { mesh, first, count } of this.exactParts) {
+      mesh.updateVerticesData(this.B.VertexBuffer.PositionKind, P.subarray(3 * first, 3 * (first + count)), false, false);
+    }
+  }
+
+  // The body node's meshes, one per primitive of the body mesh (the body's, then a garment's).
+  get bodyParts() {
+    const body = this.bodyNode;
+    if (!body) return [];
+    return body.getVerticesData ? [body] : body.getChildMeshes(true).filter((m) => m.getVerticesData);
   }
 
   // World-space Gaussian centres (N x 3) after update().

@@ -23,8 +23,9 @@
 //
 // On write: every payload gets a fresh bufferView (8-byte aligned) and its crc32 is recomputed
 // (CRC-32 IEEE, as zlib); `texture.crc32` / `width` / `height` follow the image as written;
-// `body.draco` is dropped (it described haha's own Draco stream; optional since version 3).
-// Only version-3 files can be rewritten (earlier versions keep the body-vertex map inside the
+// `body.draco` and `body.garment.draco` are dropped (they described haha's own Draco streams;
+// optional since version 3). Only version-3 and -4 files can be rewritten (version 4: a
+// garment is the body mesh's primitive 1) (earlier versions keep the body-vertex map inside the
 // Draco stream, which glTF-Transform does not keep), with `gaussians.faceOrder` "canonical" (the
 // default pack: it survives any face and vertex reordering, Draco edgebreaker included; "file",
 // lossless packs, names faces by their position in haha's own stream and is refused).
@@ -32,9 +33,11 @@ import { Accessor, Extension, ExtensionProperty, Format, GLB_BUFFER, ImageUtils,
 
 export const HAHA_GAUSSIAN_AVATAR = 'HAHA_gaussian_avatar';
 export const KHR_GAUSSIAN_SPLATTING = 'KHR_gaussian_splatting';
-/** Versions read (format/spec.md); only the last can be written back (see above). */
-export const HAHA_READ_VERSIONS = [1, 2, 3];
-export const HAHA_WRITE_VERSION = 3;
+/** Versions read (format/spec.md); only the last two can be written back (see above). */
+export const HAHA_READ_VERSIONS = [1, 2, 3, 4];
+export const HAHA_WRITE_VERSION = 4;
+// The oldest version it writes back: version 3 (no garment primitive yet) needs nothing new.
+export const HAHA_OLDEST_WRITE_VERSION = 3;
 
 // ---------------------------------------------------------------------------------------------
 // CRC-32 (IEEE 802.3, reflected, as zlib / PNG).
@@ -97,8 +100,11 @@ function fail(message) {
 // Draco quantizes float attributes (12 bits for generic ones in glTF-Transform), which would
 // turn body-vertex indices into wrong ones; integers it keeps exactly.
 function integerBodyVertex(mesh) {
-  const prim = mesh && mesh.listPrimitives()[0];
-  const acc = prim && prim.getAttribute('_BODY_VERTEX');
+  for (const prim of mesh ? mesh.listPrimitives() : []) integerPrimitiveBodyVertex(prim);  // the body's, a garment's
+}
+
+function integerPrimitiveBodyVertex(prim) {
+  const acc = prim.getAttribute('_BODY_VERTEX');
   if (!acc || acc.getComponentType() !== Accessor.ComponentType.FLOAT || acc.getElementSize() !== 1) return;
   const a = acc.getArray();
   let max = 0;
@@ -205,8 +211,10 @@ export class HahaGaussianAvatar extends Extension {
     avatar.setBodyMesh(refIndex(body, 'mesh', context.meshes, 'meshes', 'body'));
     avatar.setBodyNode(refIndex(body, 'node', context.nodes, 'nodes', 'body'));
     avatar.setBodySkin(refIndex(body, 'skin', context.skins, 'skins', 'body'));
-    // body.draco described haha's Draco stream; glTF-Transform decodes the mesh, so it is gone.
+    // body.draco (and body.garment.draco) described haha's Draco streams; glTF-Transform
+    // decodes the mesh, so they are gone.
     delete body.draco;
+    if (isObject(body.garment)) delete body.garment.draco;
     if (!isObject(data.texture)) fail('texture: missing or not an object');
     avatar.setTexture(refIndex(data.texture, 'image', context.textures, 'images', 'texture'));
     if (data.splats !== undefined) {
@@ -243,7 +251,7 @@ export class HahaGaussianAvatar extends Extension {
       return this;
     }
     const data = avatar.getData();
-    if (data.version !== HAHA_WRITE_VERSION) {
+    if (!(data.version >= HAHA_OLDEST_WRITE_VERSION && data.version <= HAHA_WRITE_VERSION)) {
       fail(`cannot write a version-${data.version} avatar: before version ${HAHA_WRITE_VERSION} the body-vertex map ` +
            'lives inside haha\'s own Draco stream, which glTF-Transform does not keep; repack it with haha pack ' +
            `(version ${HAHA_WRITE_VERSION})`);
@@ -259,6 +267,7 @@ export class HahaGaussianAvatar extends Extension {
     data.body.node = context.nodeIndexMap.get(node);
     data.body.skin = context.skinIndexMap.get(skin);
     delete data.body.draco;
+    if (isObject(data.body.garment)) delete data.body.garment.draco;
     const image = tex.getImage();
     if (!image) fail('the texture image has no data');
     data.texture.image = context.imageIndexMap.get(tex);
@@ -320,13 +329,20 @@ export class HahaGaussianAvatar extends Extension {
     return this;
   }
 
-  // The body primitive must still be what the Gaussians bind to.
+  // The body primitives (the body's, then a garment's) must still be what the Gaussians bind to.
   _checkBodyMesh(mesh, data) {
-    const prim = mesh.listPrimitives()[0];
-    if (!prim || prim.getMode() !== Primitive.Mode.TRIANGLES) fail('the body mesh\'s first primitive is no longer a triangle list');
-    const bodyVertex = prim.getAttribute('_BODY_VERTEX');
-    if (!bodyVertex) fail('the body mesh lost its _BODY_VERTEX attribute (the Gaussians bind through it)');
-    const faces = (prim.getIndices() || bodyVertex).getCount() / 3;
+    const prims = mesh.listPrimitives();
+    if (!prims.length) fail('the body mesh has no primitive');
+    if (prims.length !== (isObject(data.body.garment) && data.version >= 4 ? 2 : 1)) {
+      fail(`the body mesh has ${prims.length} primitives, the avatar ${data.body.garment ? 'a body and a garment' : 'one'}`);
+    }
+    let faces = 0;
+    for (const prim of prims) {
+      if (prim.getMode() !== Primitive.Mode.TRIANGLES) fail('a primitive of the body mesh is no longer a triangle list');
+      const bodyVertex = prim.getAttribute('_BODY_VERTEX');
+      if (!bodyVertex) fail('the body mesh lost its _BODY_VERTEX attribute (the Gaussians bind through it)');
+      faces += (prim.getIndices() || bodyVertex).getCount() / 3;
+    }
     if (Number.isInteger(data.body.faceCount) && faces !== data.body.faceCount) {
       fail(`the body mesh has ${faces} faces, the avatar ${data.body.faceCount} (a transform added or removed faces)`);
     }

@@ -92,10 +92,13 @@ export default {
   centres() {
     scene.render();  // skeleton and layer up to date
     const means = layer.worldMeans();
-    const body = layer.bodyNode;
-    const pos = body.getPositionData(true, true);
-    const world = body.getWorldMatrix();
+    // One mesh per primitive of the body mesh (the body's, then a garment's): glTF vertex g of
+    // the avatar is vertex g - first of the part it falls in.
+    const parts = layer.bodyParts.map((m) => ({ pos: m.getPositionData(true, true), world: m.getWorldMatrix() }));
     const centroids = faceCentroids(layer.avatar, (g) => {
+      let k = 0;
+      while (g >= parts[k].pos.length / 3) g -= parts[k++].pos.length / 3;
+      const { pos, world } = parts[k];
       const p = B.Vector3.TransformCoordinates(new B.Vector3(pos[3 * g], pos[3 * g + 1], pos[3 * g + 2]), world);
       return [p.x, p.y, p.z];
     });

@@ -61,16 +61,20 @@ export function workDir(opts, prefix) {
 // A tiny trained run (as samples/web/test/viewer_test.mjs makes it) in DIR/run: the one of
 // --run-from DIR when given (CTest's js_avatar fixture trains it once for the three tests), or
 // trained into the work folder unless already there.
-export function tinyRun(run, work, from) {
-  if (from && fs.existsSync(`${from}/run/avatar.npz`)) return `${from}/run`;
+// name 'run_skirt' with extra ['s0.garment.mode=skirt']: the same avatar trained with a
+// skirt (format version 4: the garment is the body mesh's second primitive).
+export function tinyRun(run, work, from, extra = [], name = 'run') {
+  if (from && fs.existsSync(`${from}/${name}/avatar.npz`)) return `${from}/${name}`;
   const base = work;
-  if (fs.existsSync(`${base}/run/avatar.npz`)) return `${base}/run`;
-  run(['synth', '--out', `${base}/data`, '--frames', '8', '--test-frames', '2', '--size', '64']);
-  run(['train', '--data', `${base}/data`, '--out', `${base}/run`, '--preset', 'tiny', 'resolution=64',
+  if (fs.existsSync(`${base}/${name}/avatar.npz`)) return `${base}/${name}`;
+  if (!fs.existsSync(`${base}/data/dataset.json`)) run(['synth', '--out', `${base}/data`, '--frames', '8', '--test-frames', '2', '--size', '64']);
+  run(['train', '--data', `${base}/data`, '--out', `${base}/${name}`, '--preset', 'tiny', 'resolution=64',
     's1.steps=50', 's1.densify.from=10', 's1.densify.until=40', 's1.densify.every=20', 's2.steps=30', 's2.texture_size=64',
-    's3.steps=30', 's3.prune_every=20', 'log_every=1000']);
-  return `${base}/run`;
+    's3.steps=30', 's3.prune_every=20', 'log_every=1000', ...extra]);
+  return `${base}/${name}`;
 }
+
+export const SKIRT = [['s0.garment.mode=skirt'], 'run_skirt'];
 
 // The pack variants the tests load: the default (Draco mesh) and, when this haha writes
 // format version 3, the Draco-free mesh (--mesh-compression none) with skinned splats.
@@ -368,6 +372,10 @@ export async function engineTest(spec) {
   const t0 = Date.now();
   const runDir = tinyRun(run, work, opts['run-from']);
   const variants = packVariants(run, opts.haha, runDir, work);
+  // The avatar with a skirt (Draco; every mode): the garment primitive skinned and reposed.
+  const garment = { name: 'garment', file: `${work}/avatar_garment.glb`, args: [], allModes: true };
+  run(['pack', tinyRun(run, work, opts['run-from'], ...SKIRT), '--out', garment.file]);
+  variants.push(garment);
   if (!fs.existsSync(`${work}/motion.npz`)) run(['motion', '--kind', 'wave', '--frames', '8', '--out', `${work}/motion.npz`]);
   const frame = Number(opts.frame), size = Number(opts.size), minPsnr = Number(opts['min-psnr']);
 
@@ -396,7 +404,7 @@ export async function engineTest(spec) {
     for (const v of variants) {
       const ref = await loadAvatarNode(v.file);
       for (const [mode, loadOptions] of spec.modes) {
-      if (mode && v !== variants[variants.length - 1]) continue;  // the other modes on the last variant only (time)
+      if (mode && v !== variants[variants.length - 2] && !v.allModes) continue;  // the other modes on the plain variant and the garment only (time)
         const label = `${v.name}${mode ? `, ${mode}` : ''}`;
         let info;
         try {

@@ -61,9 +61,14 @@ export default {
   centres() {
     gltf.scene.updateMatrixWorld(true);
     const means = layer.worldMeans(), v = new THREE.Vector3();
+    // One SkinnedMesh per primitive of the body mesh (the body's, then a garment's): glTF
+    // vertex g of the avatar is vertex g - first of the part it falls in.
+    const parts = layer.bodyParts;
     const centroids = faceCentroids(layer.avatar, (g) => {
-      skinned.getVertexPosition(g, v);
-      v.applyMatrix4(skinned.matrixWorld);
+      let k = 0;
+      while (g >= parts[k].geometry.attributes.position.count) g -= parts[k++].geometry.attributes.position.count;
+      parts[k].getVertexPosition(g, v);
+      v.applyMatrix4(parts[k].matrixWorld);
       return [v.x, v.y, v.z];
     });
     return centresBase64(means, centroids);

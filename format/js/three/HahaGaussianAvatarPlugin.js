@@ -1,5 +1,5 @@
 // three.js GLTFLoader plugin for HAHA avatars (.glb + HAHA_gaussian_avatar, format/spec.md,
-// versions 1 to 3): the loaded gltf.scene keeps the standard skinned, textured body that
+// versions 1 to 4): the loaded gltf.scene keeps the standard skinned, textured body that
 // GLTFLoader makes, plus a HahaGaussianLayer: the face-bound Gaussians, reposed every frame
 // from the skeleton's bones with the exact triangle-bound maths of the haha loader (linear
 // blend skinning with every influence and the embedded pose correctives, face frames of the
@@ -63,15 +63,19 @@ export class HahaGaussianAvatarPlugin {
       const a = parser.associations.get(o);
       if (a && a.nodes !== undefined && !byNode.has(a.nodes)) byNode.set(a.nodes, o);
     });
-    let body = byNode.get(ext.body.node);
-    if (body && !body.isSkinnedMesh) body = body.getObjectByProperty('isSkinnedMesh', true);
+    // A body mesh of several primitives (version 4: the body, then a garment) loads as a
+    // group of skinned meshes, one per primitive, in primitive order.
+    const node = byNode.get(ext.body.node);
+    const parts = [];
+    if (node) node.traverse((o) => { if (o.isSkinnedMesh) parts.push(o); });
+    const body = parts[0];
     if (!body || !body.isSkinnedMesh) throw new Error(`${name}: ${EXTENSION_NAME}: body node ${ext.body.node} is not a skinned mesh in the loaded scene`);
     if (body.skeleton.bones.length !== NUM_JOINTS) throw new Error(`${name}: skin: must have exactly ${NUM_JOINTS} joints (SMPL-X)`);
     if (ext.splats && this.options.hideSplatPrimitive !== false) {
       const s = byNode.get(ext.splats.node);
       if (s) s.visible = false;
     }
-    const layer = new HahaGaussianLayer(avatar, body, this.options);
+    const layer = new HahaGaussianLayer(avatar, body, { ...this.options, bodyParts: parts });
     result.scene.add(layer);
     result.userData.hahaAvatar = layer;
   }
@@ -115,6 +119,7 @@ export class HahaGaussianLayer extends THREE.Mesh {
     this.frustumCulled = false;
     this.avatar = avatar;
     this.skinnedMesh = skinnedMesh;
+    this.bodyParts = options.bodyParts || [skinnedMesh];  // one skinned mesh per primitive of the body mesh
     this.bones = skinnedMesh.skeleton.bones;
     this.splats = splats;
     this.projector = splats.projector;
@@ -193,27 +198,40 @@ export class HahaGaussianLayer extends THREE.Mesh {
   }
 
   // exactBody: the body drawn from the CPU-posed vertices (every influence, pose correctives)
-  // instead of GPU skinning; the SkinnedMesh is hidden.
+  // instead of GPU skinning, one mesh per primitive (each a slice of the avatar's glTF
+  // vertices); the SkinnedMeshes are hidden.
   _makeExactBody() {
-    const sk = this.skinnedMesh, a = this.avatar;
-    const g = new THREE.BufferGeometry();
-    if (sk.geometry.index) g.setIndex(sk.geometry.index);
-    for (const k of ['uv', 'normal']) if (sk.geometry.attributes[k]) g.setAttribute(k, sk.geometry.attributes[k]);
-    if (sk.geometry.attributes.position.count !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${sk.geometry.attributes.position.count} vertices, the avatar ${a.Vg}`);
-    this._exactPositions = new THREE.BufferAttribute(new Float32Array(3 * a.Vg), 3);
-    this._exactPositions.setUsage(THREE.DynamicDrawUsage);
-    g.setAttribute('position', this._exactPositions);
-    g.boundingSphere = new THREE.Sphere(new THREE.Vector3(), Infinity);
-    const mesh = new THREE.Mesh(g, sk.material);
-    mesh.name = 'HAHA_exact_body';
-    mesh.frustumCulled = false;
-    sk.visible = false;
-    this.exactBody = mesh;
-    this.add(mesh);
+    const a = this.avatar;
+    const total = this.bodyParts.reduce((n, sk) => n + sk.geometry.attributes.position.count, 0);
+    if (total !== a.Vg) throw new Error(`${EXTENSION_NAME}: the body mesh has ${total} vertices, the avatar ${a.Vg}`);
+    this._exactPositions = new THREE.BufferAttribute(new Float32Array(3 * a.Vg), 3);  // every part's, for posedGltfVertices
+    this._exactParts = [];
+    const group = new THREE.Group();
+    group.name = 'HAHA_exact_body';
+    let at = 0;
+    for (const sk of this.bodyParts) {
+      const n = sk.geometry.attributes.position.count;
+      const g = new THREE.BufferGeometry();
+      if (sk.geometry.index) g.setIndex(sk.geometry.index);
+      for (const k of ['uv', 'normal']) if (sk.geometry.attributes[k]) g.setAttribute(k, sk.geometry.attributes[k]);
+      const pos = new THREE.BufferAttribute(this._exactPositions.array.subarray(3 * at, 3 * (at + n)), 3);
+      pos.setUsage(THREE.DynamicDrawUsage);
+      g.setAttribute('position', pos);
+      g.boundingSphere = new THREE.Sphere(new THREE.Vector3(), Infinity);
+      const mesh = new THREE.Mesh(g, sk.material);
+      mesh.name = 'HAHA_exact_body_' + this._exactParts.length;
+      mesh.frustumCulled = false;
+      sk.visible = false;
+      this._exactParts.push(pos);
+      group.add(mesh);
+      at += n;
+    }
+    this.exactBody = group;
+    this.add(group);
   }
 
   _updateExactBody() {
     this.avatar.posedGltfVertices(this._exactPositions.array);
-    this._exactPositions.needsUpdate = true;
+    for (const p of this._exactParts) p.needsUpdate = true;
   }
 }

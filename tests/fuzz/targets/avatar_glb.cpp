@@ -16,8 +16,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 }
 
 // Small valid files: the default pack, lossless, webp, and (version 3) a plain mesh with
-// skinned splats, an edgebreaker mesh, a lossless pack of a displaced (clothed) body and a body with a garment. The corpus also keeps seeds of older versions
-// written by earlier packers (seed0-4: versions 2).
+// skinned splats, an edgebreaker mesh, a lossless pack of a displaced (clothed) body, and
+// (version 4) a body with a garment as the mesh's second primitive, Draco and plain. The
+// corpus also keeps seeds of older versions written by earlier packers (seed0-4: version 2;
+// seed8: version 3, the garment inside primitive 0).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   const haha::Avatar a = haha::test::make_test_avatar(40, 2, 8, 8);
   haha::PackOptions lossy, lossless, webp, plain;
@@ -34,5 +36,7 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   clothed.body.rest_offsets.assign(a.body.v_template.size(), 0.01f);
   haha::fuzz::write_seed(dir, "seed7_v3_clothed_lossless.glb", haha::pack_avatar(clothed, lossless));
   const haha::Avatar garment = haha::test::with_test_garment(haha::test::without_degenerate_face(a));
-  haha::fuzz::write_seed(dir, "seed8_v3_garment.glb", haha::pack_avatar(garment, lossy));
+  haha::fuzz::write_seed(dir, "seed9_v4_garment.glb", haha::pack_avatar(garment, lossy));
+  plain.khr_gaussian_splatting = false;
+  haha::fuzz::write_seed(dir, "seed10_v4_garment_plain.glb", haha::pack_avatar(garment, plain));
 }
