@@ -47,6 +47,8 @@ void add_garment_and_surface_entries(Stage0Config& s0, std::vector<ConfigEntry>&
   v.push_back({"s0.garment.mode", K::String, &gm.mode,
                "garment around both legs: auto (from the masks), skirt (always), none (never)"});
   v.push_back({"s0.garment.fill", K::Double, &gm.fill, "garment: share of the between-legs pixels in the mask that means one"});
+  v.push_back({"s0.garment.max_edge", K::Double, &gm.max_edge,
+               "garment: widest hem edge (fill falling 0.8 -> 0.2) as a share of hip-to-ankle; wider is a trouser crotch"});
   v.push_back({"s0.garment.max_frames", K::Int, &gm.max_frames, "garment: frames measured for the decision"});
   v.push_back({"s0.garment.rings", K::Int, &gm.rings, "garment: rings from the waist to the hem"});
   v.push_back({"s0.garment.columns", K::Int, &gm.columns, "garment: vertices around each ring"});
@@ -401,6 +403,7 @@ void validate_config(const TrainConfig& c) {
   const Stage0Config::Garment& gm = c.s0.garment;
   need(gm.mode == "auto" || gm.mode == "skirt" || gm.mode == "none", "s0.garment.mode", "must be auto, skirt or none");
   need(gm.fill > 0 && gm.fill <= 1, "s0.garment.fill", "must be in (0, 1]");
+  need(gm.max_edge > 0 && gm.max_edge <= 1, "s0.garment.max_edge", "must be in (0, 1]");
   need(gm.max_frames >= 1, "s0.garment.max_frames", "must be >= 1");
   need(gm.rings >= 2 && gm.rings <= 256 && gm.columns >= 8 && gm.columns <= 1024, "s0.garment.rings",
        "rings in [2, 256], columns in [8, 1024]");

@@ -93,6 +93,7 @@ struct Stage0Config {
   struct Garment {
     std::string mode = "auto";  // auto (made when the masks fill the space between the legs) | skirt | none
     double fill = 0.5;          // share of the between-legs pixels in the mask that means a garment
+    double max_edge = 0.12;     // widest hem edge (fill 0.8 -> 0.2), share of hip-to-ankle; wider: a crotch
     int max_frames = 40;        // frames measured, evenly spread
     int rings = 14, columns = 48;
     double chart = 0.2;         // share of the texture's width for the garment's chart

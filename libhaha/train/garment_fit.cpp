@@ -120,6 +120,19 @@ int hem_level(const GarmentDecision& d, double fill) {
   return hem;
 }
 
+// Where the fill first falls below `value` down the leg, between the two levels it falls
+// between (linearly); NaN when it never does.
+double fill_crossing(const GarmentDecision& d, double value) {
+  double prev_t = NAN, prev_f = NAN;
+  for (int k = 0; k < kLevels; ++k) {
+    const double f = d.fill[size_t(k)];
+    if (std::isnan(f)) continue;
+    if (f < value) return std::isnan(prev_f) ? level_t(k) : prev_t + (prev_f - value) / (prev_f - f) * (level_t(k) - prev_t);
+    prev_t = level_t(k), prev_f = f;
+  }
+  return NAN;
+}
+
 }  // namespace
 
 GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFrame>& frames, const Stage0Config::Garment& opt) {
@@ -141,10 +154,21 @@ GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFra
   measure(body, frames, betas, sets, opt.max_frames, d);
 
   int hem = hem_level(d, opt.fill);
-  char why[200];
+  char why[240];
   if (hem < 2 && opt.mode == "auto") {  // less than 10 cm of leg covered: shorts or trousers
     std::snprintf(why, sizeof why, "no garment: the space between the legs is background (fill %.2f at the top, %.2f needed)",
                   std::isnan(d.fill[0]) ? 0.0 : d.fill[0], opt.fill);
+    d.why = why;
+    return d;
+  }
+  // A hem is a level edge: the fill drops from full to none within a few centimetres. Loose
+  // trousers fill the top too, but their crotch is an inverted V: the fill fades as the legs
+  // part. (A garment to the ankles never drops: no edge to measure.)
+  const double edge = fill_crossing(d, 0.2) - fill_crossing(d, 0.8);
+  if (hem >= 2 && opt.mode == "auto" && edge > opt.max_edge) {
+    std::snprintf(why, sizeof why,
+                  "no garment: the fill between the legs fades over %.2f of the leg (a crotch, not a hem; %.2f at most)", edge,
+                  opt.max_edge);
     d.why = why;
     return d;
   }
@@ -163,9 +187,11 @@ GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFra
   d.y_hem = shape.y_hem;
   d.garment = build_garment(body, rest, joints, shape);
   d.made = true;
-  std::snprintf(why, sizeof why, "%s: waist at %.3f m, hem at %.3f m (t = %.2f down the leg), %d vertices",
+  char edge_note[64] = "";
+  if (!forced && std::isfinite(edge)) std::snprintf(edge_note, sizeof edge_note, ", its edge %.2f of the leg", edge);
+  std::snprintf(why, sizeof why, "%s: waist at %.3f m, hem at %.3f m (t = %.2f down the leg%s), %d vertices",
                 forced ? "garment forced by s0.garment.mode=skirt (none seen)" : "garment: the masks fill the space between the legs",
-                d.y_top, d.y_hem, level_t(hem) + 0.5 * kLevelStep, d.garment.num_verts());
+                d.y_top, d.y_hem, level_t(hem) + 0.5 * kLevelStep, edge_note, d.garment.num_verts());
   d.why = why;
   return d;
 }

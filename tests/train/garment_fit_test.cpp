@@ -1,11 +1,13 @@
 // The garment decision (train/garment_fit.h) on frames of the procedural body with its legs
 // apart: masks of the bare body (trousers) make no garment; masks whose rows between the
 // crotch and the knees are filled from leg to leg (a skirt to the knee) make one whose hem
-// is near the knee; `none` and `skirt` force the answer; a frame without a mask is named.
+// is near the knee; a filled band narrowing down to the knees (loose trousers' crotch) is
+// not a hem; `none` and `skirt` force the answer; a frame without a mask is named.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "body/lbs.h"
 #include "core/error.h"
@@ -20,9 +22,13 @@ using test::scene_body;
 
 constexpr int kSize = 96;
 
+enum class Fill { bare, skirt, crotch };
+
 // Frames seen from the front and slightly turned, the legs spread; `skirt` fills each row of
-// the mask between the pelvis joint and the knees from its leftmost to its rightmost pixel.
-std::vector<TrainFrame> frames(bool skirt) {
+// the mask between the pelvis joint and the knees from its leftmost to its rightmost pixel,
+// `crotch` fills a band about the middle that narrows to nothing at the knees (loose
+// trousers' inverted V).
+std::vector<TrainFrame> frames(Fill fill) {
   const BodyModel& b = scene_body();
   Lbs<float> lbs(b);
   BodySilhouette sil(b);
@@ -41,7 +47,7 @@ std::vector<TrainFrame> frames(bool skirt) {
     f.mask.resize(size_t(P));
     for (int p = 0; p < P; ++p) f.mask[size_t(p)] = cov[3 * size_t(p)] >= 0.5f ? 1.0f : 0.0f;
     f.rgb.assign(3 * size_t(P), 0.5f);
-    if (skirt) {
+    if (fill != Fill::bare) {
       auto row = [&](int joint) {
         return f.camera.project(f.camera.to_camera({j[3 * size_t(joint)], j[3 * size_t(joint) + 1], j[3 * size_t(joint) + 2]})).y;
       };
@@ -50,7 +56,21 @@ std::vector<TrainFrame> frames(bool skirt) {
         int lo = kSize, hi = -1;
         for (int x = 0; x < kSize; ++x)
           if (f.mask[size_t(y) * kSize + x] > 0) lo = std::min(lo, x), hi = std::max(hi, x);
-        for (int x = lo; x <= hi; ++x) f.mask[size_t(y) * kSize + x] = 1;
+        if (fill == Fill::skirt) {
+          for (int x = lo; x <= hi; ++x) f.mask[size_t(y) * kSize + x] = 1;
+          continue;
+        }
+        // The gap between the legs about the row's middle, filled at its centre by a band
+        // narrowing from the whole gap a third of the way down to nothing at the knees.
+        const int mid = (lo + hi) / 2;
+        if (lo > hi || f.mask[size_t(y) * kSize + mid] > 0) continue;
+        int gl = mid, gr = mid;
+        while (gl > lo && f.mask[size_t(y) * kSize + gl - 1] == 0) --gl;
+        while (gr < hi && f.mask[size_t(y) * kSize + gr + 1] == 0) ++gr;
+        const double ym = y0 + (y1 - y0) / 3.0, centre = 0.5 * (gl + gr);
+        const double narrow = std::clamp((y - ym) / std::max(1.0, y1 - ym), 0.0, 1.0);
+        for (int x = gl; x <= gr; ++x)
+          if (std::abs(x - centre) <= (0.5 * (gr - gl) + 0.5) * (1 - narrow)) f.mask[size_t(y) * kSize + x] = 1;
       }
     }
     out.push_back(std::move(f));
@@ -68,7 +88,7 @@ double hem_t(const GarmentDecision& d) {
 
 TEST(GarmentFit, BareLegsMakeNoGarment) {
   Stage0Config::Garment opt;
-  const GarmentDecision d = decide_garment(scene_body(), frames(false), opt);
+  const GarmentDecision d = decide_garment(scene_body(), frames(Fill::bare), opt);
   EXPECT_FALSE(d.made) << d.why;
   EXPECT_TRUE(d.garment.empty());
   long seen = 0;
@@ -81,7 +101,7 @@ TEST(GarmentFit, BareLegsMakeNoGarment) {
 
 TEST(GarmentFit, AFilledGapMakesASkirtToTheKnee) {
   Stage0Config::Garment opt;
-  const GarmentDecision d = decide_garment(scene_body(), frames(true), opt);
+  const GarmentDecision d = decide_garment(scene_body(), frames(Fill::skirt), opt);
   ASSERT_TRUE(d.made) << d.why;
   EXPECT_GT(d.fill[0], 0.8);
   EXPECT_GT(d.y_top, d.y_hem);
@@ -92,18 +112,36 @@ TEST(GarmentFit, AFilledGapMakesASkirtToTheKnee) {
   validate_garment(d.garment, "test");
 }
 
+TEST(GarmentFit, ACrotchThatFadesIsNotAHem) {
+  Stage0Config::Garment opt;
+  const GarmentDecision d = decide_garment(scene_body(), frames(Fill::crotch), opt);
+  EXPECT_GT(d.fill[0], 0.8) << "the top is filled as under a skirt";
+  EXPECT_FALSE(d.made) << d.why;
+  EXPECT_NE(d.why.find("a crotch, not a hem"), std::string::npos) << d.why;
+  const GarmentDecision skirt = decide_garment(scene_body(), frames(Fill::skirt), opt);
+  ASSERT_TRUE(skirt.made) << skirt.why;
+  // The edges each states: the crotch's wider than allowed, the skirt's hem within it.
+  double crotch_edge = 0, hem_edge = 0;
+  ASSERT_EQ(std::sscanf(d.why.c_str(), "no garment: the fill between the legs fades over %lf", &crotch_edge), 1) << d.why;
+  const size_t at = skirt.why.find("its edge ");
+  ASSERT_NE(at, std::string::npos) << skirt.why;
+  ASSERT_EQ(std::sscanf(skirt.why.c_str() + at, "its edge %lf", &hem_edge), 1) << skirt.why;
+  EXPECT_GT(crotch_edge, opt.max_edge);
+  EXPECT_LE(hem_edge, opt.max_edge);
+}
+
 TEST(GarmentFit, ModesForceTheAnswerAndBadFramesAreNamed) {
   Stage0Config::Garment opt;
   opt.mode = "none";
-  EXPECT_FALSE(decide_garment(scene_body(), frames(true), opt).made);
+  EXPECT_FALSE(decide_garment(scene_body(), frames(Fill::skirt), opt).made);
   opt.mode = "skirt";
-  const GarmentDecision forced = decide_garment(scene_body(), frames(false), opt);
+  const GarmentDecision forced = decide_garment(scene_body(), frames(Fill::bare), opt);
   EXPECT_TRUE(forced.made);
   EXPECT_NE(forced.why.find("forced"), std::string::npos) << forced.why;
   opt.mode = "trousers";
-  EXPECT_THROW(decide_garment(scene_body(), frames(false), opt), Error);
+  EXPECT_THROW(decide_garment(scene_body(), frames(Fill::bare), opt), Error);
   opt.mode = "auto";
-  std::vector<TrainFrame> bad = frames(false);
+  std::vector<TrainFrame> bad = frames(Fill::bare);
   bad[0].mask.clear();
   try {
     decide_garment(scene_body(), bad, opt);
