@@ -192,7 +192,10 @@ std::vector<float> garment_skin_weights(const BodyModel& body, const std::vector
   // the two legs as diffused; the rest is the torso's diffused share (the pelvis where the
   // torso has none).
   double y_top = -INFINITY, y_hem = INFINITY;
-  for (int n = 0; n < N; ++n) y_top = std::max(y_top, double(pts[3 * size_t(n) + 1])), y_hem = std::min(y_hem, double(pts[3 * size_t(n) + 1]));
+  for (int n = 0; n < N; ++n) {
+    y_top = std::max(y_top, double(pts[3 * size_t(n) + 1]));
+    y_hem = std::min(y_hem, double(pts[3 * size_t(n) + 1]));
+  }
   for (int n = 0; n < N; ++n) {
     double* row = &w[size_t(n) * kNumJoints];
     const double t = y_top > y_hem ? (y_top - pts[3 * size_t(n) + 1]) / (y_top - y_hem) : 1.0;

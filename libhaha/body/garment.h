@@ -36,7 +36,7 @@ struct GarmentShape {
   int rings = 14, columns = 48;
   double clearance = 0.01;      // outside the body's cross-section
   float chart = 0.2f;           // share of the texture's width for the garment's chart
-  double legs = 0.85;           // the legs' largest share of a vertex's skin weight (garment_skin_weights)
+  double legs = 0.85;           // the legs' share of the hem's skin weights (garment_skin_weights)
 };
 
 // The garment for a body whose shaped rest vertices are `rest` (V, 3) and rest joints `joints`
@@ -55,10 +55,12 @@ std::vector<int> garment_source_vertices(const BodyModel& body);
 // rule: inverse distance over the k nearest torso / leg vertices of `rest`), the
 // knees', ankles' and feet's weights moved to their hip (cloth hangs from the hips, it does
 // not bend at the knee), smoothed `smooth` times over `faces` (the garment's, may be empty),
-// the legs' share (both hips) capped at `legs_max` with the rest moved to the torso's joints
-// (cloth hangs from the waist and the legs push it: a hem bound to the thighs alone swings
-// out with them, a hem on the pelvis alone lets a stride through; game rigs keep 80-90% at
-// the hem's sides), then cut to the four largest and normalised. (N, 55).
+// then the legs' share (both hips) set to grow from 0 at the points' top to `legs_max` at
+// their bottom (linearly in height), split between the legs as diffused, the torso's
+// diffused share scaled to the rest (cloth hangs from the waist and the legs push it: a hem
+// on the thighs alone swings out with them, one on the pelvis alone lets a stride through;
+// game rigs keep 80-90% at the hem's sides), then cut to the four largest and normalised.
+// (N, 55).
 std::vector<float> garment_skin_weights(const BodyModel& body, const std::vector<float>& rest, const std::vector<float>& pts,
                                         const std::vector<int32_t>& faces, double legs_max = 0.85, int k = 96,
                                         int smooth = 8);
