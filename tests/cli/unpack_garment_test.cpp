@@ -21,15 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int haha_cli(const std::string& args, const fs::path& dir, std::string* out) {
-  const fs::path o = dir / "out.txt";
-  const std::string cmd = "'" + test::kHaha.string() + "' " + args + " > '" + o.string() + "' 2>&1";
-  const int status = std::system(cmd.c_str());
-  *out = test::slurp(o);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+int haha_cli(const std::string& args, const fs::path& dir, std::string* out) { return test::run_haha(args, dir, out); }
+std::string q(const fs::path& p) { return test::quoted(p); }
 
 // The `garment` line of `haha info`.
 std::string garment_line(const fs::path& glb, const fs::path& dir) {
