@@ -104,7 +104,9 @@ TEST(Garment, HangsFromTheHipsWithAtMostFourInfluences) {
     for (int j = 0; j < kNumJoints; ++j) {
       nonzero += weight(g, v, j) > 0;
       sum += weight(g, v, j);
-      if (j == 4 || j == 5 || j == 7 || j == 8 || j == 10 || j == 11) EXPECT_EQ(weight(g, v, j), 0.0) << "knee/ankle/foot";
+      if (j == 4 || j == 5 || j == 7 || j == 8 || j == 10 || j == 11) {
+        EXPECT_EQ(weight(g, v, j), 0.0) << "knee/ankle/foot";
+      }
     }
     EXPECT_LE(nonzero, 4);
     EXPECT_NEAR(sum, 1.0, 1e-5);

@@ -2,7 +2,7 @@
 # CTest `blender_avatar` (labels slow, blender): the Blender add-on (python/blender) on a tiny
 # trained avatar packed with the defaults (Draco mesh), tests/python/blender_addon_test.py.
 #   blender_addon_test.sh HAHA WORKDIR ADDONS_DIR [AVATAR.glb | --garment]
-# (--garment, CTest `blender_avatar_garment`: the tiny avatar trained with a skirt.)
+# (--garment: the tiny avatar trained with a skirt, which CTest `blender_avatar` uses.)
 # Exits 77 with the reason printed when Blender or its numpy is missing.
 set -euo pipefail
 haha="$1"

@@ -94,7 +94,9 @@ TEST(GarmentFit, BareLegsMakeNoGarment) {
   long seen = 0;
   for (size_t k = 0; k < d.fill.size(); ++k) {
     seen += d.pixels[k];
-    if (!std::isnan(d.fill[k])) EXPECT_LT(d.fill[k], 0.2) << "level " << k;
+    if (!std::isnan(d.fill[k])) {
+      EXPECT_LT(d.fill[k], 0.2) << "level " << k;
+    }
   }
   EXPECT_GT(seen, 100) << "the legs must be apart in these frames";
 }
