@@ -40,27 +40,37 @@ Camera framing_camera(Vec3f lo, Vec3f hi, int size) {
   return c;
 }
 
-// How far the legs poke through the avatar's garment over the rendered frames, one line
-// (nothing for an avatar without a garment).
-void report_garment_clearance(const AvatarLoader& avatar, const Motion& motion, const std::vector<size_t>& frames) {
-  const BodyModel& body = avatar.avatar().body;
-  if (!body.has_garment()) return;
-  PosedAvatar posed;
-  avatar.repose(SmplxParams{}, posed);
-  const std::vector<int> covered = garment_covered_vertices(body, posed.verts.data());
-  int worst_frame = 0, frames_through = 0;
-  double worst = 0, share = 0;
-  for (size_t i = 0; i < frames.size(); ++i) {
-    avatar.repose(motion.frames[frames[i]], posed);
-    const GarmentClearance c = garment_clearance(body, covered, posed.verts.data());
-    frames_through += c.outside > 0;
-    share = std::max(share, c.share());
-    if (c.max_depth > worst) worst = c.max_depth, worst_frame = int(i);
+// How far the legs poke through the avatar's garment over the rendered frames (nothing for
+// an avatar without a garment): fed each posed frame, printed as one line.
+class GarmentClearanceReport {
+ public:
+  explicit GarmentClearanceReport(const AvatarLoader& avatar) : body_(avatar.avatar().body) {
+    if (!body_.has_garment()) return;
+    PosedAvatar rest;
+    avatar.repose(SmplxParams{}, rest);
+    covered_ = garment_covered_vertices(body_, rest.verts.data());
   }
-  std::printf("garment: %zu body vertices inside it at rest; a leg through it in %d of %zu frames, at most %.1f%% of them, "
-              "deepest %.1f mm (frame %d)\n",
-              covered.size(), frames_through, frames.size(), 100 * share, 1000 * worst, worst_frame);
-}
+  void add(const PosedAvatar& posed) {
+    if (!body_.has_garment()) return;
+    const GarmentClearance c = garment_clearance(body_, covered_, posed.verts.data());
+    frames_through_ += c.outside > 0;
+    share_ = std::max(share_, c.share());
+    if (c.max_depth > worst_) worst_ = c.max_depth, worst_frame_ = frames_;
+    ++frames_;
+  }
+  void print() const {
+    if (!body_.has_garment()) return;
+    std::printf("garment: %zu body vertices inside it at rest; a leg through it in %d of %d frames, at most %.1f%% of "
+                "them, deepest %.1f mm (frame %d)\n",
+                covered_.size(), frames_through_, frames_, 100 * share_, 1000 * worst_, worst_frame_);
+  }
+
+ private:
+  const BodyModel& body_;
+  std::vector<int> covered_;
+  int frames_ = 0, frames_through_ = 0, worst_frame_ = 0;
+  double share_ = 0, worst_ = 0;
+};
 
 }  // namespace
 
@@ -122,15 +132,17 @@ void run_render(const RenderRunOptions& o) {
   for (int c = 0; c < 3; ++c) ro.background[c] = o.background[c];
   AvatarRenderScratch scratch;
   Image img(cam.width, cam.height, 3);
+  GarmentClearanceReport clearance(avatar);
   for (size_t i = 0; i < frames.size(); ++i) {
     avatar.repose(motion.frames[frames[i]], posed);
+    clearance.add(posed);
     avatar.render(cam, posed, img.data, ro, scratch);
     char name[32];
     std::snprintf(name, sizeof name, "frame_%05zu.png", i);
     write_image((std::filesystem::path(o.out) / name).string(), img);
   }
   std::printf("%s: %zu frames (%dx%d) -> %s\n", o.avatar.c_str(), frames.size(), cam.width, cam.height, o.out.c_str());
-  report_garment_clearance(avatar, motion, frames);
+  clearance.print();
   if (!o.video.empty()) {
     const double fps = o.fps > 0 ? o.fps : motion.fps / o.every;
     write_atomically(o.video, [&](const std::string& tmp) {

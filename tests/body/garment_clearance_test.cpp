@@ -12,7 +12,7 @@
 #include "body/garment_clearance.h"
 #include "body/lbs.h"
 #include "body/procedural_body.h"
-#include "body/rotation.h"
+#include "support/skirt_shape.h"
 
 namespace haha {
 namespace {
@@ -28,10 +28,7 @@ Dressed dressed(double legs = GarmentShape{}.legs, bool rigid_to_pelvis = false)
   const BodyModel b = make_procedural_body();
   std::vector<float> verts(3 * size_t(b.num_verts)), joints(3 * size_t(kNumJoints));
   Lbs<float>(b).forward(SmplxParams{}, verts.data(), joints.data(), nullptr);
-  GarmentShape s;
-  const double hip = 0.5 * (joints[4] + joints[7]), knee = 0.5 * (joints[13] + joints[16]);
-  s.y_top = 0.5 * (joints[1] + joints[10]);
-  s.y_hem = hip + 0.8 * (knee - hip);
+  GarmentShape s = test::skirt_shape(joints);
   s.legs = legs;
   Garment g = build_garment(b, verts, joints, s);
   if (rigid_to_pelvis) {

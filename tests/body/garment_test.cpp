@@ -11,6 +11,7 @@
 #include "body/lbs.h"
 #include "body/procedural_body.h"
 #include "core/error.h"
+#include "support/skirt_shape.h"
 
 namespace haha {
 namespace {
@@ -31,13 +32,7 @@ Rest rest_of(const BodyModel& b) {
   return r;
 }
 
-GarmentShape skirt_shape(const Rest& r) {
-  GarmentShape s;
-  const double hip = 0.5 * (r.joints[4] + r.joints[7]), knee = 0.5 * (r.joints[13] + r.joints[16]);
-  s.y_top = 0.5 * (r.joints[1] + r.joints[10]);
-  s.y_hem = hip + 0.8 * (knee - hip);
-  return s;
-}
+GarmentShape skirt_shape(const Rest& r) { return test::skirt_shape(r.joints); }
 
 double weight(const Garment& g, int v, int j) { return g.weights[size_t(v) * kNumJoints + size_t(j)]; }
 

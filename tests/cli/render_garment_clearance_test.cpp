@@ -17,6 +17,7 @@
 #include "format/avatar_pack.h"
 #include "support/format_test_avatar.h"
 #include "support/haha_cli.h"
+#include "support/skirt_shape.h"
 
 namespace haha {
 namespace {
@@ -31,11 +32,7 @@ BodyModel skirted_body() {
   const BodyModel b = make_procedural_body({BodyResolution::low, 0});
   std::vector<float> verts(3 * size_t(b.num_verts)), joints(3 * size_t(kNumJoints));
   Lbs<float>(b).forward(SmplxParams{}, verts.data(), joints.data(), nullptr);
-  GarmentShape s;
-  const double hip = 0.5 * (joints[4] + joints[7]), knee = 0.5 * (joints[13] + joints[16]);
-  s.y_top = 0.5 * (joints[1] + joints[10]);
-  s.y_hem = hip + 0.8 * (knee - hip);
-  return append_garment(b, build_garment(b, verts, joints, s));
+  return append_garment(b, build_garment(b, verts, joints, test::skirt_shape(joints)));
 }
 
 struct Line {
