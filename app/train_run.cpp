@@ -115,12 +115,14 @@ BodyModel fit_clothed_surface(const BodyModel& body, const std::vector<TrainFram
   char line[240];
   std::snprintf(line, sizeof line,
                 "%s: %d steps at %d px, data loss %.4g -> %.4g; displacement mean %.1f mm, 95%% under %.1f mm, "
-                "largest %.1f mm (%.1f s)",
-                what, opt.steps, fit.side, fit.loss_start, fit.loss_end, fit.mean_mm, fit.p95_mm, fit.max_mm, seconds());
+                "largest %.1f mm, %d vertices held by another part to under half their outward bound (%.1f s)",
+                what, opt.steps, fit.side, fit.loss_start, fit.loss_end, fit.mean_mm, fit.p95_mm, fit.max_mm, fit.part_held,
+                seconds());
   log(line);
   summary["clothed_surface"] = {{"steps", opt.steps}, {"garment_only", opt.garment_only}, {"side", fit.side},
                                 {"loss", {fit.loss_start, fit.loss_end}}, {"mean_mm", fit.mean_mm}, {"p95_mm", fit.p95_mm},
-                                {"max_mm", fit.max_mm}, {"seconds", seconds()}};
+                                {"max_mm", fit.max_mm}, {"part_held", fit.part_held},
+                                {"seconds", seconds()}};
   ensure_directory(run.dir);
   write_npy(run.rest_offsets(), NpyArray::from(fit.offsets, {int64_t(body.num_verts), 3}));
   BodyModel out = body;

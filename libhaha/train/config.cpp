@@ -76,9 +76,14 @@ void add_garment_and_surface_entries(Stage0Config& s0, std::vector<ConfigEntry>&
                "clothed surface: largest outward displacement of hands, feet, jaw and eyes (metres)"});
   v.push_back({"s0.surface.max_in", K::Double, &sf.max_in, "clothed surface: largest inward displacement (metres)"});
   v.push_back({"s0.surface.w.silhouette", K::Double, &sf.w_silhouette, "clothed surface: weight of the mask mismatch"});
+  v.push_back({"s0.surface.w.outside", K::Double, &sf.outside,
+               "clothed surface: the mask mismatch's weight where the surface covers background, times "
+               "s0.surface.w.silhouette (> 1 keeps the surface inside the person's outline)"});
   v.push_back({"s0.surface.w.photo", K::Double, &sf.w_photo, "clothed surface: weight of the colour error"});
   v.push_back({"s0.surface.w.laplacian", K::Double, &sf.w_laplacian, "clothed surface: weight of the smoothness"});
   v.push_back({"s0.surface.w.shrink", K::Double, &sf.w_shrink, "clothed surface: weight of the pull back to the body"});
+  v.push_back({"s0.surface.part_clearance", K::Bool, &sf.part_clearance,
+               "clothed surface: no body part grows over another (an arm at the side) in any frame"});
 }
 
 }  // namespace

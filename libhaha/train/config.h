@@ -78,9 +78,11 @@ struct Stage0Config {
     double max_held = 0.005;    // ... where hands, feet and the jaw / eyes drive the vertex
     double max_in = 0.003;      // metres inward at most (the fit's body is not too fat)
     double w_silhouette = 1;    // coverage against the mask, both ways (mean over pixels)
+    double outside = 1;         // ... times this where the surface covers background (> 1: it stays inside the person)
     double w_photo = 1;         // |I - gt|^2 per pixel over a random background
     double w_laplacian = 3e4;   // mean over vertices of (h - mean of the neighbours' h)^2, metres
     double w_shrink = 1;        // mean over vertices of h^2: what no view asks for stays on the body
+    bool part_clearance = true;  // no part grows over another in any frame (train/part_clearance.h)
     // A garment appended to the body (not keys: the run sets them from s0.garment): its
     // vertices move in [0, garment_max_out] at their own rates and smoothness (a flared hem
     // moves far more than a body's displacement); garment_only holds the body's at 0.

@@ -13,6 +13,7 @@
 #include "train/gaussian_params.h"
 #include "train/image_loss.h"
 #include "train/levels.h"
+#include "train/part_clearance.h"
 #include "train/silhouette_fit.h"
 
 namespace haha {
@@ -183,6 +184,7 @@ class SurfaceFit {
     h_adam_.add_group("h", body.num_body_verts(), opt_.lr);
     if (body.has_garment()) h_adam_.add_group("h_garment", V - body.num_body_verts(), opt_.garment_lr);
     pose_frames(video_betas(frames, body.num_shape));
+    if (opt_.part_clearance) hold_parts_apart();
   }
 
   // One step: returns the data loss (NaN when the step was skipped for a non-finite value).
@@ -235,6 +237,7 @@ class SurfaceFit {
     r.p95_mm = 1e3 * mag[size_t(0.95 * (V - 1))];
     r.max_mm = 1e3 * mag.back();
     r.side = level_frames_.empty() ? 0 : std::max(level_frames_[0].camera.width, level_frames_[0].camera.height);
+    r.part_held = part_held_;
     return r;
   }
 
@@ -256,6 +259,16 @@ class SurfaceFit {
       dir_.emplace_back(3 * size_t(V));
       lbs.forward(p, base_.back().data(), nullptr, &cache);
       posed_normal_directions(body_, cache.skinning, normals_.data(), dir_.back().data());
+    }
+  }
+
+  // Lowers the outward bounds so that no part grows over another in any frame.
+  void hold_parts_apart() {
+    const std::vector<float> clear =
+        part_clearance_bounds(body_, base_, dir_, float(opt_.max_out), float(opt_.garment_max_out));
+    for (int v = 0; v < body_.num_verts; ++v) {
+      part_held_ += clear[size_t(v)] < 0.5f * upper_[size_t(v)];
+      upper_[size_t(v)] = std::min(upper_[size_t(v)], clear[size_t(v)]);
     }
   }
 
@@ -304,12 +317,13 @@ class SurfaceFit {
     return loss;
   }
 
-  // w_silhouette mean[m (1 - k) + (1 - m) k]; its gradient into d_verts_.
+  // w_silhouette mean[outside m (1 - k) + (1 - m) k]; its gradient into d_verts_.
   double silhouette_term(const TrainFrame& f) {
     const int P = f.camera.width * f.camera.height;
     const std::vector<float>& cov = silhouette_.render(f.camera, verts_.data());
     d_sil_.resize(3 * size_t(P));
-    const double loss = silhouette_mismatch(cov.data(), f.mask.data(), P, opt_.w_silhouette, opt_.w_silhouette, d_sil_.data());
+    const double loss = silhouette_mismatch(cov.data(), f.mask.data(), P, opt_.w_silhouette * opt_.outside, opt_.w_silhouette,
+                                            d_sil_.data());
     silhouette_.backward(d_sil_.data(), d_verts_.data());
     return loss;
   }
@@ -326,7 +340,7 @@ class SurfaceFit {
   std::vector<float> upper_, lower_, h_, d_h_, normals_;
   std::vector<std::vector<float>> base_, dir_;
   LevelSchedule schedule_;
-  int warmup_steps_ = 0, level_ = -1, texture_side_ = 0;
+  int warmup_steps_ = 0, level_ = -1, texture_side_ = 0, part_held_ = 0;
   std::vector<TrainFrame> level_frames_;
   std::vector<float> texture_, d_texture_, verts_, d_verts_, gt_, d_image_, d_sil_;
   Adam tex_adam_, h_adam_;

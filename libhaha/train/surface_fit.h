@@ -18,7 +18,9 @@
 // and feet: the fits and the masks are least reliable there (fingers, shoes in shadow) and a
 // displacement would turn fingers into mittens; jaw and eyes: the face's shape drives its
 // expressions and its texture is the most looked at. The first `warmup` share of the steps
-// trains the texture alone. A garment appended to the body (body/garment.h) moves too, in
+// trains the texture alone. With `part_clearance` bound_v also keeps each part off the
+// others in every frame (train/part_clearance.h: an arm at the side is not swallowed by the
+// torso grown out to a side view's mask). A garment appended to the body (body/garment.h) moves too, in
 // [0, garment_max_out] with its own Adam group (garment_lr) and smoothness over its own faces
 // (garment_w_laplacian); `garment_only` holds the body at 0. Measured: docs/results.md, "The
 // clothed surface" and "A garment around both legs".
@@ -42,6 +44,7 @@ struct SurfaceFitReport {
   double mean_mm = 0;             // mean |h| over the vertices
   double p95_mm = 0, max_mm = 0;  // 95th percentile and largest outward h
   int side = 0;                   // longer image side of the last level
+  int part_held = 0;              // vertices whose outward bound another part more than halved
 };
 
 // Fits h to the frames (their params as given; betas from video_betas). `progress`
