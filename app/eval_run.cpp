@@ -77,8 +77,12 @@ EvalReport run_eval(const EvalRunOptions& o) {
   const RunInfo info = read_trained_run_info(run, "haha eval");
   const std::string data = o.data_dir.empty() ? info.data_path : o.data_dir;
   // Avatars: the final (filtered) one and the stage-1 (full Gaussian) one, same body.
-  const Avatar filtered = load_run_avatar(run);
-  const Avatar full = load_stage1_avatar(run, filtered.body);
+  Avatar filtered = load_run_avatar(run);
+  Avatar full = load_stage1_avatar(run, filtered.body);
+  if (o.depth_margin >= 0) {  // the merge scored with another depth test than the run trained with
+    if (!(o.depth_margin <= kMaxDepthMargin)) fail("--depth-margin", "must be a number of metres in [0, 1]");
+    filtered.depth_margin = full.depth_margin = float(o.depth_margin);
+  }
   Dataset ds = read_dataset(data, LoadPixels::headers);
   const int resolution = scoring_resolution(ds, info.config, o.resolution);
   std::vector<TrainFrame> frames = dataset_frames(ds, split, resolution);
@@ -130,6 +134,11 @@ EvalReport run_eval(const EvalRunOptions& o) {
   for (const auto& [k, v] : config_to_pairs(info.config))
     for (const auto& [k0, v0] : config_to_pairs(defaults))
       if (k == k0 && v != v0 && !(k == "fits" && v == "exact")) r.switches.push_back(k + "=" + v);
+  if (o.depth_margin >= 0) {
+    char m[48];
+    std::snprintf(m, sizeof m, "eval depth margin=%g", o.depth_margin);
+    r.switches.push_back(m);
+  }
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
   const std::vector<EvalVariant> rows = paper_variants(filtered, full);

@@ -26,6 +26,7 @@ struct EvalRunOptions {
   std::string lpips_weights;         // empty: the run's (AlexNet part used)
   std::vector<std::string> variants;  // rows to evaluate (kPaperVariantKeys); empty: all four
   bool print_table = true;           // one line per variant on stdout while it runs
+  double depth_margin = -1;          // metres of the merge's depth test; < 0: the run's (s3.depth_margin)
   int antialias = -1;                // antialiased mesh silhouette (EvalOptions::antialias): 1 on
                                      // (--antialias), 0 off (--no-antialias), -1 the run's eval.antialias
 };

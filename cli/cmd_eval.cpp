@@ -30,6 +30,10 @@ HAHA_COMMAND(eval) {
                   "evaluate only these rows of the table: mesh, full, naive, haha (comma separated; default all; "
                   "the requirement checks need mesh, full and haha)")
       ->delimiter(',');
+  sub->add_option("--depth-margin", r.depth_margin,
+                  "score the merge with Gaussians up to this many metres behind the mesh visible (default: the run's "
+                  "s3.depth_margin)")
+      ->check(CLI::NonNegativeNumber);
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--resolution", r.resolution,
                   "score at this longer image side in px, any size (default: the size the run trained at)");

@@ -140,6 +140,11 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
     j["poseCorrectives"]["quantizationBits"] = i.pose_corrective_bits;
   }
   j["khrGaussianSplatting"] = i.splats;
+  j["garment"] = nullptr;  // none: the body mesh is one primitive
+  if (i.garment_first_vertex >= 0)
+    j["garment"] = {{"firstVertex", i.garment_first_vertex}, {"firstFace", i.garment_first_face},
+                    {"vertices", i.body_vertex_count - i.garment_first_vertex},
+                    {"faces", s.num_faces - i.garment_first_face}, {"gaussians", i.garment_gaussians}};
   j["subject"] = {{"betas", u.avatar.betas}, {"expression", u.avatar.expression},
                   {"faceScaleDivisor", u.avatar.face_scale_divisor}};
   j["storage"] = {{"fileBytes", r.file_bytes},

@@ -86,10 +86,9 @@ void measure_frame(const TrainFrame& f, const std::vector<float>& verts, const s
 }
 
 // The fill per level over (at most max_frames of) the frames.
-void measure(const BodyModel& body, const std::vector<TrainFrame>& frames, const std::vector<float>& betas,
-             const LevelSets& sets, int max_frames, GarmentDecision& d) {
+void measure(const BodyModel& body, const Lbs<float>& lbs, const std::vector<TrainFrame>& frames,
+             const std::vector<float>& betas, const LevelSets& sets, int max_frames, GarmentDecision& d) {
   std::vector<long> seen(kLevels, 0), inside(kLevels, 0);
-  Lbs<float> lbs(body);
   BodySilhouette sil(body);
   std::vector<float> verts(3 * size_t(body.num_verts));
   const int n = int(frames.size()), m = std::min(n, max_frames);
@@ -151,13 +150,19 @@ GarmentDecision decide_garment(const BodyModel& body, const std::vector<TrainFra
   std::vector<float> rest(3 * size_t(body.num_verts)), joints(3 * size_t(kNumJoints));
   lbs.forward(rest_p, rest.data(), joints.data(), nullptr);
   const LevelSets sets = level_sets(body, rest, joints);
-  measure(body, frames, betas, sets, opt.max_frames, d);
+  measure(body, lbs, frames, betas, sets, opt.max_frames, d);
 
   int hem = hem_level(d, opt.fill);
   char why[240];
   if (hem < 2 && opt.mode == "auto") {  // less than 10 cm of leg covered: shorts or trousers
-    std::snprintf(why, sizeof why, "no garment: the space between the legs is background (fill %.2f at the top, %.2f needed)",
-                  std::isnan(d.fill[0]) ? 0.0 : d.fill[0], opt.fill);
+    if (hem < 0)
+      std::snprintf(why, sizeof why, "no garment: the space between the legs is background (fill %.2f at the top, %.2f needed)",
+                    std::isnan(d.fill[0]) ? 0.0 : d.fill[0], opt.fill);
+    else  // filled at the top, but only as far as a crotch reaches
+      std::snprintf(why, sizeof why,
+                    "no garment: the masks fill the space between the legs only to t = %.2f down the leg (a crotch; a hem "
+                    "reaches t = %.2f or lower)",
+                    level_t(hem) + 0.5 * kLevelStep, level_t(2));
     d.why = why;
     return d;
   }

@@ -1,6 +1,6 @@
 // `haha unpack` of an avatar with a garment gives a run directory that `haha pack` turns
 // into the same avatar again: the garment primitive, where it starts, and the Gaussians on
-// its faces (`haha info` shows the same garment line).
+// its faces (`haha info` shows the same garment line, and `haha info --json` the garment).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "format/avatar_pack.h"
 #include "format/avatar_unpack.h"
@@ -59,7 +61,18 @@ TEST(UnpackGarment, PackUnpackPackKeepsTheGarment) {
     EXPECT_EQ(u.avatar.body.num_faces, a.body.num_faces);
     EXPECT_EQ(u.avatar.gaussians.size(), a.gaussians.size());
     EXPECT_NEAR(u.avatar.body.garment_chart, a.body.garment_chart, 1e-6f);
+    ASSERT_EQ(haha_cli("info --json " + q(dir / "again.glb"), dir, &out), 0) << out;
+    const nlohmann::json j = nlohmann::json::parse(out);
+    ASSERT_TRUE(j["garment"].is_object()) << out;
+    EXPECT_EQ(j["garment"]["firstVertex"], a.body.garment_first_vert);
+    EXPECT_EQ(j["garment"]["vertices"], a.body.num_verts - a.body.garment_first_vert);
+    EXPECT_EQ(j["garment"]["faces"], a.body.num_faces - a.body.num_body_faces());
+    EXPECT_EQ(j["garment"]["gaussians"], 7);
   }
+  write_avatar_glb(test::without_degenerate_face(test::make_test_avatar(120)), (dir / "bare.glb").string(), PackOptions{});
+  std::string out;
+  ASSERT_EQ(haha_cli("info --json " + q(dir / "bare.glb"), dir, &out), 0) << out;
+  EXPECT_TRUE(nlohmann::json::parse(out)["garment"].is_null()) << out;
   std::error_code ec;
   fs::remove_all(dir, ec);
 }

@@ -90,6 +90,7 @@ TEST(GarmentFit, BareLegsMakeNoGarment) {
   Stage0Config::Garment opt;
   const GarmentDecision d = decide_garment(scene_body(), frames(Fill::bare), opt);
   EXPECT_FALSE(d.made) << d.why;
+  EXPECT_NE(d.why.find("the space between the legs is background"), std::string::npos) << d.why;
   EXPECT_TRUE(d.garment.empty());
   long seen = 0;
   for (size_t k = 0; k < d.fill.size(); ++k) {
