@@ -157,6 +157,14 @@ struct Stage2Config {
   double init_color = 0.5;
   std::string levels;            // as s1.levels
   LossWeights w{1.0, 0.1, 0.0, 0.01, 0.0, 0.0, 0.01, 0.0};
+  // Texels the frames barely saw (train/texture_evidence.h; evidence in frontal pixels):
+  // below evidence_full a texel is smoothed toward its neighbours during the stage (weight
+  // `smooth`, train/texture_smooth.h) and, with `fill`, blended after it toward the colour
+  // diffused from the seen texels over the surface, the gutter dilated (train/texture_fill.h).
+  double evidence_full = 1.0;
+  double smooth = 1.0;
+  bool fill = true;
+  int fill_iterations = 300;
 };
 
 struct Stage3Config {
