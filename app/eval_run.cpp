@@ -159,8 +159,8 @@ EvalReport run_eval(const EvalRunOptions& o) {
                                                                    filtered.texture.height), r.evidence_full);
     }
     if (o.print_table)
-      std::printf("  texture speckle per mille: neck %.1f, hands %.1f, feet %.1f\n", sp->per_mille[0], sp->per_mille[1],
-                  sp->per_mille[2]);
+      std::printf("  texture speckle per mille: neck %.1f, hands %.1f, feet %.1f (all charts %.1f)\n", sp->per_mille[0],
+                  sp->per_mille[1], sp->per_mille[2], sp->all_per_mille);
   }
   r.regions_full = gaussians_per_region(full.body, full.gaussians);
   r.regions_filtered = gaussians_per_region(filtered.body, filtered.gaussians);

@@ -145,6 +145,8 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
       parts[speckle_part_name(p)] = sp->per_mille[size_t(p)];
       texels[speckle_part_name(p)] = sp->texels[size_t(p)];
     }
+    parts["allCharts"] = sp->all_per_mille;
+    texels["allCharts"] = sp->all_texels;
     j["texture"]["speckle"] = {{"perMille", parts}, {"texels", texels}, {"luminanceStep", kSpeckleStep}};
   }
   j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
@@ -211,8 +213,8 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   o << "\n";
   if (const auto sp = avatar_texture_speckle(u.avatar)) {
     char sb[200];
-    std::snprintf(sb, sizeof sb, "neck %.1f, hands %.1f, feet %.1f per mille", sp->per_mille[0], sp->per_mille[1],
-                  sp->per_mille[2]);
+    std::snprintf(sb, sizeof sb, "neck %.1f, hands %.1f, feet %.1f per mille (all charts %.1f)", sp->per_mille[0],
+                  sp->per_mille[1], sp->per_mille[2], sp->all_per_mille);
     o << "  speckle       " << sb << " (chart texels > " << kSpeckleStep << " luminance off their 5x5 median)\n";
   }
   o << "  correctives   " << (i.pose_correctives.empty() ? std::string("not embedded") : i.pose_correctives + " (" + bytes(s.pose_correctives) + ")");

@@ -48,8 +48,7 @@ TextureSpeckle texture_speckle(const float* rgb, const TextureCharts& charts, co
     float window[(2 * kSpeckleRadius + 1) * (2 * kSpeckleRadius + 1)];
     for (int i = 0; i < W; ++i) {
       const int64_t t = j * W + i;
-      const int32_t f = charts.face[size_t(t)];
-      if (f < 0 || size_t(f) >= face_part.size() || face_part[size_t(f)] < 0) continue;
+      if (charts.face[size_t(t)] < 0) continue;
       int n = 0;
       for (int y = std::max<int64_t>(0, j - kSpeckleRadius); y <= std::min<int64_t>(H - 1, j + kSpeckleRadius); ++y)
         for (int x = std::max(0, i - kSpeckleRadius); x <= std::min(W - 1, i + kSpeckleRadius); ++x)
@@ -62,10 +61,14 @@ TextureSpeckle texture_speckle(const float* rgb, const TextureCharts& charts, co
   std::array<int64_t, kSpeckleParts> hits{};
   for (size_t t = 0; t < speck.size(); ++t) {
     const int32_t f = charts.face[t];
-    if (f < 0 || size_t(f) >= face_part.size() || face_part[size_t(f)] < 0) continue;
+    if (f < 0) continue;
+    ++s.all_texels;
+    s.all_per_mille += speck[t];
+    if (size_t(f) >= face_part.size() || face_part[size_t(f)] < 0) continue;
     ++s.texels[size_t(face_part[size_t(f)])];
     hits[size_t(face_part[size_t(f)])] += speck[t];
   }
+  s.all_per_mille = s.all_texels ? 1000.0 * s.all_per_mille / double(s.all_texels) : 0.0;
   for (int p = 0; p < kSpeckleParts; ++p)
     s.per_mille[size_t(p)] = s.texels[size_t(p)] ? 1000.0 * double(hits[size_t(p)]) / double(s.texels[size_t(p)]) : 0.0;
   return s;

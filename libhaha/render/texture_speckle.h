@@ -34,6 +34,8 @@ inline const char* speckle_part_name(int p) { return p == 0 ? "neck" : p == 1 ? 
 struct TextureSpeckle {
   std::array<double, kSpeckleParts> per_mille{};  // speckled texels per 1000 texels of the part
   std::array<int64_t, kSpeckleParts> texels{};    // chart texels of the part
+  double all_per_mille = 0;                       // the same over every chart texel (garment included)
+  int64_t all_texels = 0;
 };
 
 // Per face: its part (SpecklePart) or -1.

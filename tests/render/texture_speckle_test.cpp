@@ -110,6 +110,8 @@ TEST(TextureSpeckle, CountsExactlyTheFlippedTexelsAndIgnoresTheGutter) {
     if (part[size_t(c.face[t])] >= 0) ++flipped[part[size_t(c.face[t])]];
   }
   const TextureSpeckle s = texture_speckle(tex.data(), c, part);
+  EXPECT_DOUBLE_EQ(s.all_per_mille, 1000.0 * double((n + 15) / 16) / double(c.count()));
+  EXPECT_EQ(clean.all_per_mille, 0.0);
   for (int p = 0; p < 3; ++p) {
     EXPECT_GT(flipped[p], 0);
     EXPECT_DOUBLE_EQ(s.per_mille[size_t(p)], 1000.0 * double(flipped[p]) / double(s.texels[size_t(p)]));
