@@ -65,6 +65,14 @@ std::string eval_report_json(const EvalReport& r) {
   if (!r.part.empty()) j["part"] = r.part;
   j["eval_seconds"] = r.eval_seconds;
   j["stage_train_seconds"] = {r.stage_seconds[0], r.stage_seconds[1], r.stage_seconds[2]};
+  if (r.has_speckle) {
+    ojson t;
+    for (int p = 0; p < kSpeckleParts; ++p) t["speckle_per_mille"][speckle_part_name(p)] = r.speckle.per_mille[size_t(p)];
+    t["speckle_per_mille"]["all_charts"] = r.speckle.all_per_mille;
+    if (r.low_evidence_share >= 0)
+      t["evidence_full"] = r.evidence_full, t["low_evidence_share"] = r.low_evidence_share;
+    j["texture"] = t;
+  }
   ojson rows = ojson::array();
   for (size_t i = 0; i < r.variants.size(); ++i) {
     const VariantEval& v = r.variants[i];
@@ -153,6 +161,15 @@ std::string eval_report_markdown(const EvalReport& r) {
     s += "\nTransmittance over the " + r.part + "'s pixels (background showing through the render):";
     for (const VariantEval& v : r.variants) s += " " + v.name + " " + f2(100 * v.transmittance_part, "%.2f") + "%;";
     s.back() = '.';
+    s += "\n";
+  }
+  if (r.has_speckle) {
+    s += "\nTexture speckle (chart texels > " + f2(kSpeckleStep, "%.2f") + " luminance off their 5x5 median, per mille): neck " +
+         f2(r.speckle.per_mille[0], "%.1f") + ", hands " + f2(r.speckle.per_mille[1], "%.1f") + ", feet " +
+         f2(r.speckle.per_mille[2], "%.1f") + " (all charts " + f2(r.speckle.all_per_mille, "%.1f") + ").";
+    if (r.low_evidence_share >= 0)
+      s += " Chart texels seen less than " + f2(r.evidence_full, "%g") + " frontal pixel(s): " +
+           f2(100 * r.low_evidence_share, "%.1f") + "%.";
     s += "\n";
   }
   s += "\nStorage: 56 bytes per Gaussian (14 float32) + 4 bytes face index, texture as 8-bit RGB.\n";

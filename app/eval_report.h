@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "render/texture_speckle.h"
 #include "train/evaluate.h"
 
 namespace haha {
@@ -26,6 +27,11 @@ struct EvalReport {
   std::string part;                      // non-empty: VariantEval::psnr_part is over this part's pixels
   std::vector<int> regions_full, regions_filtered;  // Gaussians per BodyRegion
   double eval_seconds = 0;
+  // The HAHA avatar's texture where the video barely looked (render/texture_speckle.h), and
+  // the share of its chart texels below s2.evidence.full (-1: no RUN/texture_evidence.npy).
+  bool has_speckle = false;
+  TextureSpeckle speckle;
+  double evidence_full = 0, low_evidence_share = -1;
 };
 
 // The method's claims checked on variants [mesh, full, naive, filtered]:

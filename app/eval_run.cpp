@@ -15,7 +15,10 @@
 #include "core/error.h"
 #include "data/dataset.h"
 #include "data/synth_dataset.h"
+#include "format/avatar_info.h"
 #include "io/image.h"
+#include "render/texture_charts.h"
+#include "train/texture_evidence.h"
 #include "train/train_frame.h"
 #include "train/evaluate.h"
 
@@ -154,6 +157,19 @@ EvalReport run_eval(const EvalRunOptions& o) {
         std::printf("  %s PSNR %.2f, transmittance %.2f%%", o.part.c_str(), e.psnr_part, 100 * e.transmittance_part);
       std::printf("\n");
     }
+  }
+  if (const auto sp = avatar_texture_speckle(filtered)) {
+    r.has_speckle = true;
+    r.speckle = *sp;
+    const std::vector<float> e = read_texture_evidence(run, filtered.texture.width);
+    if (!e.empty() && filtered.texture.width == filtered.texture.height) {
+      r.evidence_full = info.config.s2.evidence_full;
+      r.low_evidence_share = evidence_share_below(e, texture_charts(filtered.body, filtered.texture.width,
+                                                                   filtered.texture.height), r.evidence_full);
+    }
+    if (o.print_table)
+      std::printf("  texture speckle per mille: neck %.1f, hands %.1f, feet %.1f (all charts %.1f)\n", sp->per_mille[0],
+                  sp->per_mille[1], sp->per_mille[2], sp->all_per_mille);
   }
   r.regions_full = gaussians_per_region(full.body, full.gaussians);
   r.regions_filtered = gaussians_per_region(filtered.body, filtered.gaussians);

@@ -1,6 +1,7 @@
 #include "app/run_dir.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -115,6 +116,19 @@ RunInfo read_trained_run_info(const RunDir& run, const std::string& what) {
     fail(run.config(), what + " needs a trained run (this config names only a body model" +
                            (r.unpacked_from.empty() ? std::string(")") : "; unpacked from " + r.unpacked_from + ")"));
   return r;
+}
+
+std::vector<float> read_texture_evidence(const RunDir& run, int size) {
+  const std::string path = run.texture_evidence();
+  if (!std::filesystem::exists(path)) return {};
+  const NpyArray a = read_npy(path);
+  if (a.shape != std::vector<int64_t>{size, size})
+    fail(path, "expected a (" + std::to_string(size) + ", " + std::to_string(size) +
+                   ") array, the texture's size (a run trained with another s2.texture_size?)");
+  std::vector<float> e = a.as_float();
+  for (float v : e)
+    if (!std::isfinite(v) || v < 0) fail(path, "holds a negative or non-finite evidence value");
+  return e;
 }
 
 std::array<double, 3> read_train_seconds(const RunDir& run) {

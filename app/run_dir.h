@@ -15,6 +15,8 @@
 //   rest_offsets.npy         (V, 3) the clothed surface's rest displacement, when the run fitted
 //                            one (s0.surface; --resume reads it back; avatar.npz carries it too)
 //   garment.npz              the garment appended to the body (s0.garment), when one was made
+//   texture_evidence.npy     (S, S) float32: how much the training frames saw each texel of the
+//                            final texture, in frontal pixels (train/texture_evidence.h)
 //   train_summary.json       stage wall times, Gaussian counts, skipped steps, last losses
 //   report.json, report.md, eval_sheet.png   written by `haha eval`
 //   body.npz                 the body model, in an unpacked avatar's directory
@@ -22,6 +24,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "body/avatar.h"
 #include "train/config.h"
@@ -42,6 +45,7 @@ struct RunDir {
   std::string refined_fits() const { return file("smplx_refined.npz"); }
   std::string rest_offsets() const { return file("rest_offsets.npy"); }
   std::string garment() const { return file("garment.npz"); }
+  std::string texture_evidence() const { return file("texture_evidence.npy"); }
   std::string train_summary() const { return file("train_summary.json"); }
   std::string report_json() const { return file("report.json"); }
   std::string report_md() const { return file("report.md"); }
@@ -72,6 +76,10 @@ std::array<double, 3> read_train_seconds(const RunDir& run);
 // ---- checkpoints ------------------------------------------------------------------------
 void write_checkpoint(const std::string& path, const TrainCheckpoint& ck);  // atomic npz
 TrainCheckpoint read_checkpoint(const std::string& path);  // haha::Error naming the file
+
+// RUN/texture_evidence.npy for a texture of side `size`; empty when the file is absent.
+// Throws haha::Error "<path>: <problem>" for a wrong shape or a negative / non-finite value.
+std::vector<float> read_texture_evidence(const RunDir& run, int size);
 
 // ---- avatars ------------------------------------------------------------------------------
 // RUN/avatar.npz + the body model named by config.json (or `model_path` when non-empty).

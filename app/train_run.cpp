@@ -19,10 +19,12 @@
 #include "io/body_model_io.h"
 #include "io/npy.h"
 #include "io/smplx_params_io.h"
+#include "render/texture_charts.h"
 #include "train/device.h"
 #include "train/photo_fit.h"
 #include "train/garment_fit.h"
 #include "train/surface_fit.h"
+#include "train/texture_evidence.h"
 #include "train/progress.h"
 #include "train/silhouette_fit.h"
 #include "train/train_frame.h"
@@ -217,7 +219,17 @@ void write_run_outputs(const Trainer& trainer, const RunDir& run, int W, int H, 
   for (size_t k = 0; k < held.size() && k < vfits.size(); ++k)
     fits.insert(fits.begin() + std::ptrdiff_t(held[k]), vfits[k]);
   write_smplx_params(run.refined_fits(), fits);
+  const std::vector<float> evidence = trainer.texture_evidence();
+  const Avatar& final_avatar = s1;  // both avatars carry the final texture
   ojson s;
+  if (!evidence.empty() && evidence.size() * 3 == final_avatar.texture.rgb.size()) {
+    const int S = final_avatar.texture.width;
+    write_npy(run.texture_evidence(), NpyArray::from(evidence, {int64_t(S), int64_t(S)}));
+    const TextureCharts charts = texture_charts(final_avatar.body, S, S);
+    s["texture"] = {{"evidence_full", cfg.s2.evidence_full},
+                    {"low_evidence_share", evidence_share_below(evidence, charts, cfg.s2.evidence_full)},
+                    {"filled", cfg.s2.fill}};
+  }
   s["stage_seconds"] = {res.stage_seconds[0], res.stage_seconds[1], res.stage_seconds[2]};
   s["train_seconds"] = res.stage_seconds[0] + res.stage_seconds[1] + res.stage_seconds[2];
   s["gaussians_stage1"] = res.gaussians_stage1;

@@ -40,6 +40,14 @@ GaussianPly rest_pose_ply(const Avatar& a, int sh_degree) {
   return p;
 }
 
+std::optional<TextureSpeckle> avatar_texture_speckle(const Avatar& a) {
+  const Texture& t = a.texture;
+  if (t.width <= 0 || t.height <= 0 || t.rgb.size() != size_t(t.width) * t.height * 3 || a.body.vt.empty() ||
+      a.body.ft.size() != size_t(a.body.num_faces) * 3)
+    return std::nullopt;
+  return texture_speckle(a.body, t.rgb, t.width, t.height);
+}
+
 namespace {
 
 size_t serialized_size(const GaussianPly& p) {
@@ -131,6 +139,16 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
   }
   j["texture"] = {{"mimeType", i.texture_mime}, {"width", i.texture_width}, {"height", i.texture_height},
                   {"exactFloatCopy", i.texture_exact}};
+  if (const auto sp = avatar_texture_speckle(u.avatar)) {
+    nlohmann::json parts, texels;
+    for (int p = 0; p < kSpeckleParts; ++p) {
+      parts[speckle_part_name(p)] = sp->per_mille[size_t(p)];
+      texels[speckle_part_name(p)] = sp->texels[size_t(p)];
+    }
+    parts["allCharts"] = sp->all_per_mille;
+    texels["allCharts"] = sp->all_texels;
+    j["texture"]["speckle"] = {{"perMille", parts}, {"texels", texels}, {"luminanceStep", kSpeckleStep}};
+  }
   j["poseCorrectives"] = {{"embedded", i.pose_correctives.empty() ? "none" : i.pose_correctives},
                           {"trainedWith", i.trained_with_pose_correctives},
                           {"topologyCrc32", i.topology_crc32}};
@@ -198,6 +216,12 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
   o << "  texture       " << i.texture_mime << " " << i.texture_width << " x " << i.texture_height << " (" << bytes(s.texture) << ")";
   if (i.texture_exact) o << " + exact float32 copy (" << bytes(s.texture_exact) << ")";
   o << "\n";
+  if (const auto sp = avatar_texture_speckle(u.avatar)) {
+    char sb[200];
+    std::snprintf(sb, sizeof sb, "neck %.1f, hands %.1f, feet %.1f per mille (all charts %.1f)", sp->per_mille[0],
+                  sp->per_mille[1], sp->per_mille[2], sp->all_per_mille);
+    o << "  speckle       " << sb << " (chart texels > " << kSpeckleStep << " luminance off their 5x5 median)\n";
+  }
   o << "  correctives   " << (i.pose_correctives.empty() ? std::string("not embedded") : i.pose_correctives + " (" + bytes(s.pose_correctives) + ")");
   if (i.pose_correctives == "sparse_lowrank") {
     o << ": " << i.pose_corrective_blocks << " (vertex, joint) blocks, rank " << i.pose_corrective_rank << ", "

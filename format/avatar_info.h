@@ -5,10 +5,12 @@
 
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "format/avatar_unpack.h"
 #include "io/ply_3dgs.h"
+#include "render/texture_speckle.h"
 
 namespace haha {
 
@@ -34,6 +36,10 @@ StorageReport storage_report(const UnpackedAvatar& u);
 // The avatar's Gaussians in the rest pose (world space, the baked rest mesh's face frames)
 // as a standard 3DGS scene: f_dc = (colour - 0.5) / 0.28209479, logit opacity, log scale.
 GaussianPly rest_pose_ply(const Avatar& a, int sh_degree = 0);
+
+// The texture's speckle where the video barely looked (render/texture_speckle.h); none
+// without a texture or a UV map.
+std::optional<TextureSpeckle> avatar_texture_speckle(const Avatar& a);
 
 // Machine-readable summary (`haha info --json`, unpack's summary.json).
 nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar& u, const StorageReport& r);

@@ -181,6 +181,13 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s2.levels", K::String, &s2.levels,
                "coarse to fine as s1.levels; the texture side halves per coarser level and is upsampled as the images grow"});
   add_weights(v, "s2", s2.w);
+  v.push_back({"s2.evidence.full", K::Double, &s2.evidence_full,
+               "texture evidence (frontal pixels seen) at which a texel is kept as trained"});
+  v.push_back({"s2.evidence.smooth", K::Double, &s2.smooth,
+               "weight of the smoothness prior on texels below s2.evidence.full (0 = off)"});
+  v.push_back({"s2.evidence.fill", K::Bool, &s2.fill,
+               "after stage 2: fill texels below s2.evidence.full from their seen neighbours, dilate the gutter"});
+  v.push_back({"s2.evidence.fill_iterations", K::Int, &s2.fill_iterations, "Gauss-Seidel sweeps of the fill"});
 
   Stage3Config& s3 = c.s3;
   v.push_back({"s3.steps", K::Int, &s3.steps, "stage 3 steps (opacity / colour filtering)"});
@@ -431,6 +438,10 @@ void validate_config(const TrainConfig& c) {
   need(c.s1.densify_split_div > 0, "s1.densify.split_div", "must be > 0");
   need(c.s1.max_gaussians >= 1, "s1.max_gaussians", "must be >= 1");
   need(c.s2.texture_size >= 4 && c.s2.texture_size <= 8192, "s2.texture_size", "must be in [4, 8192]");
+  need(c.s2.evidence_full > 0 && std::isfinite(c.s2.evidence_full), "s2.evidence.full", "must be > 0");
+  need(c.s2.smooth >= 0 && std::isfinite(c.s2.smooth), "s2.evidence.smooth", "must be >= 0");
+  need(c.s2.fill_iterations >= 0 && c.s2.fill_iterations <= 100000, "s2.evidence.fill_iterations",
+       "must be in [0, 100000]");
   need(c.s3.prune_threshold < 1, "s3.prune_threshold", "must be < 1");
   need(c.s3.validation_every == 0 || c.s3.validation_every >= 2, "s3.validation_every",
        "must be 0 (off) or >= 2 (one frame in N held out)");

@@ -150,6 +150,12 @@ std::vector<float> Trainer::densify_statistic() const {
     if (p_->grad_count[i] > 0) s[i] = p_->grad_accum[i] / p_->grad_count[i];
   return s;
 }
+std::vector<float> Trainer::texture_evidence() const {
+  p_->sync_host();
+  if (p_->tex_evidence.size() == size_t(p_->tex_size) * size_t(p_->tex_size) && !p_->texture.empty())
+    return p_->tex_evidence;
+  return p_->compute_texture_evidence();
+}
 std::array<double, 3> Trainer::stage_seconds() const { return p_->seconds; }
 int64_t Trainer::skipped_steps() const { return p_->skipped; }
 std::vector<FilterStopPoint> Trainer::filter_points() const { return p_->stop.points(); }

@@ -131,6 +131,9 @@ class Trainer {
   // Stage 1: per Gaussian, the densification statistic since the last densification (mean
   // over the views that saw it of |dL/d(screen centre)| in NDC units; 0 where unseen).
   std::vector<float> densify_statistic() const;
+  // (S, S) how much the training frames saw each texel of the current texture, in frontal
+  // pixels (train/texture_evidence.h); empty before stage 2.
+  std::vector<float> texture_evidence() const;
   std::array<double, 3> stage_seconds() const;      // wall time spent in each stage
   // Stage 3 with validation views: the points its filtering was scored at and the index of
   // the one it ended on (-1: no validation, or not scored yet).

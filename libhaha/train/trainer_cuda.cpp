@@ -20,6 +20,7 @@
 #include "cuda/cuda_base.h"
 #include "train/losses_cuda.h"
 #include "train/optim_cuda.h"
+#include "train/texture_smooth.h"
 #include "train/trainer_impl.h"
 #include "train/trainer_kernels_cuda.h"
 
@@ -371,6 +372,14 @@ struct Trainer::Impl::Cuda : TrainerDevice {
       const double v = cuda::texture_tv_loss_cuda(texture.data(), S, S, 3, ls, d_texture.data(), float(w.tv));
       terms.tv += v;
       terms.total += w.tv * v;
+    }
+    if (cfg.s2.smooth > 0) {  // the evidence-weighted prior, on the host (train/texture_smooth.h): two copies a step
+      t.update_texture_evidence();
+      const std::vector<float> h = texture.to_host();
+      std::vector<float> g = d_texture.to_host();
+      const double v = texture_smooth_loss(h.data(), t.tex_smooth_w.data(), S, S, 3, g.data(), float(cfg.s2.smooth));
+      d_texture.upload(g);
+      terms.total += cfg.s2.smooth * v;
     }
     run_hook(2, d_texture);
     if (!std::isfinite(terms.total) || !all_finite({&d_texture})) return false;

@@ -24,6 +24,7 @@
 #include "render/avatar_render.h"
 #include "render/mesh_raster.h"
 #include "render/texture.h"
+#include "render/texture_charts.h"
 #include "train/adam.h"
 #include "train/face_stretch.h"
 #include "train/filter_stop.h"
@@ -73,6 +74,11 @@ struct Trainer::Impl {
   std::vector<SmplxParams> params;  // per frame; betas are replaced by `betas` at use
   std::vector<float> texture;       // (S, S, 3)
   int tex_size = 0;
+  // Derived from the frozen bodies at the texture's current size (recomputed after a resume or
+  // a level change; trainer_texture.cpp): how much the frames saw each texel, its charts and
+  // the smoothness prior's per-texel weights.
+  std::vector<float> tex_evidence, tex_smooth_w;
+  TextureCharts tex_charts;
   Adam adam;
   std::vector<float> grad_accum, grad_count;  // densification statistics
   std::vector<int32_t> knn_idx;
@@ -227,6 +233,7 @@ struct Trainer::Impl {
       grad_accum.assign(size_t(n), 0.0f);
       grad_count.assign(size_t(n), 0.0f);
     } else if (s == 2) {
+      tex_evidence.clear();
       if (!have_s1) {
         g_s1 = g;
         have_s1 = true;
@@ -334,6 +341,13 @@ struct Trainer::Impl {
   // ---------------------------------------------------------------------------------
   // Stage 2.
   bool step2(LossTerms& terms, std::string&);
+  // The texture's evidence over every training frame at its current size, with its charts
+  // and prior weights, when they are not of that size yet (trainer_texture.cpp).
+  void update_texture_evidence();
+  // The same, computed afresh (empty without posed training bodies or a texture).
+  std::vector<float> compute_texture_evidence() const;
+  // Stage 2 ends: low-evidence texels filled from the seen ones, the gutter dilated.
+  void finish_texture(std::string& event);
   double texture_lr() const {  // of this step (s2.lr.texture_final)
     const Stage2Config& s2 = cfg.s2;
     return s2.lr_texture_final > 0 ? LogLinearLr{s2.lr_texture, s2.lr_texture_final, s2.steps}(step) : s2.lr_texture;
@@ -406,6 +420,7 @@ struct Trainer::Impl {
     while (stage <= 3 && step >= stage_steps(stage)) {
       const auto t1 = std::chrono::steady_clock::now();
       sync_host();
+      if (stage == 2) finish_texture(r.event);
       if (stage == 3 && validating()) finish_filtering(r.event);
       ++stage;
       step = 0;

@@ -1,4 +1,5 @@
 // Stage 2: the texture on the frozen, refined bodies (Gaussians off).
+#include "train/texture_smooth.h"
 #include "train/trainer_impl.h"
 
 namespace haha {
@@ -22,6 +23,12 @@ bool Trainer::Impl::step2(LossTerms& terms, std::string&) {
     image_loss(tex_color.data(), gt.data(), H, W, in.frames[size_t(fi)].mask.data(), w, lctx, d_image.data(), inv_b,
                terms);
     sample_texture_backward(tv, P, m.tri.data(), m.uv.data(), d_image.data(), d_texture.data(), nullptr);
+  }
+  if (cfg.s2.smooth > 0) {  // low-evidence texels follow their neighbours (train/texture_smooth.h)
+    update_texture_evidence();
+    const double v = texture_smooth_loss(texture.data(), tex_smooth_w.data(), tex_size, tex_size, 3, d_texture.data(),
+                                         float(cfg.s2.smooth));
+    terms.total += cfg.s2.smooth * v;
   }
   if (w.tv > 0) {
     const double v = texture_tv_loss(texture.data(), tex_size, tex_size, 3, d_texture.data(), float(w.tv));
