@@ -11,7 +11,7 @@ using V3 = Vec3<double>;
 // carried between contacts; in double support the foot that landed first holds.
 int lock_feet(const Lbs<double>& lbs, std::vector<SmplxParams>& frames, double fps, const FootLockParams& o) {
   int contacts = 0;
-  const int feet[2] = {10, 11};  // left_foot, right_foot
+  const int* feet = o.joints;
   const size_t T = frames.size();
   std::vector<V3> pos[2];
   std::vector<double> verts(size_t(lbs.num_verts()) * 3), joints(size_t(kNumJoints) * 3);
