@@ -109,6 +109,24 @@ TEST(MotionRetarget, MixamoBvhInAPoseWithAnExtraBone) {
   expect_limbs_match(m, retarget_file(path, "mixamo", 22), 1.0);
 }
 
+TEST(MotionRetarget, ZUpRigFacingAnotherWayTurnsIntoHahasWorld) {
+  const RestSkeleton rest = rest_skeleton(test::low_body());
+  const Motion m = demo("walk", 24);
+  test::Rig rig = test::make_rig(m, rest, mixamo_specs(), 0, 0, 100);
+  // Z up, facing -X (its left -Y): an axis permutation, so the turn back is exact.
+  Mat3<double> W;
+  W.a[1][0] = -1, W.a[2][1] = 1, W.a[0][2] = -1;
+  test::turn_rig(rig, W);
+  const std::string path = temp_file("zup.bvh").string();
+  write_text_file(path, test::rig_bvh(rig));
+  RetargetReport rep;
+  const RigAnimation r = read_rig_animation(path);
+  const Motion back = retarget_rig(r, choose_bone_map(builtin_bone_maps(), r.names), test::low_body(), RetargetOptions{false, {}}, &rep);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(rep.alignment.a[i][j], W.a[j][i]);  // A = W^T
+  expect_limbs_match(m, back, 0.5);
+}
+
 TEST(MotionRetarget, MixamoGlbWithRotatedBoneAxesInAPose) {
   const RestSkeleton rest = rest_skeleton(test::low_body());
   const Motion m = demo("kick", 30);

@@ -121,6 +121,17 @@ inline Rig make_rig(const Motion& m, const RestSkeleton& s, const std::vector<Ri
   return rig;
 }
 
+// The whole rig turned by W about the world origin (another up axis or facing). The bones'
+// frames turn with the world (W R W^T), so world-aligned rest frames (BVH) stay so.
+inline void turn_rig(Rig& r, const M3& W) {
+  for (RigBone& b : r.bones) {
+    b.rest_rot = W * b.rest_rot * transpose(W);
+    b.rest_pos = W * b.rest_pos;
+    for (M3& R : b.rot) R = W * R * transpose(W);
+  }
+  for (V3& p : r.root) p = W * p;
+}
+
 // Local rest translation (file units) and rotation of bone b; local rotation in frame t.
 inline V3 rig_offset(const Rig& r, size_t b) {
   const RigBone& x = r.bones[b];
