@@ -80,13 +80,29 @@ double leg_scale(const BoneMatch& m, const std::vector<V3>& rig_pos, const RestS
   return r > 0 ? norm(body.joints[size_t(top)] - body.joints[0]) / r : 1.0;
 }
 
+// Which joints take a rest offset from their bone's direction: the limbs (thighs, shins,
+// upper arms, forearms, hands, fingers), whose rest directions differ by pose (an A-pose).
+// The torso, collars, neck and head keep SMPL-X's rest: their directions differ between
+// skeletons by build (a straight spine, an upright neck), and aligning them would tip the
+// head back. Ankles and feet follow their shins.
+enum class Rest { align, torso, follow };
+Rest rest_kind(int j) {
+  switch (j) {
+    case 1: case 2: case 4: case 5: case 16: case 17: case 18: case 19: case 20: case 21: return Rest::align;
+    case 7: case 8: case 10: case 11: return Rest::follow;
+    default: return j >= kLeftHandFirst ? Rest::align : Rest::torso;
+  }
+}
+
 // C_j of every joint (the header's formula).
 std::vector<M3> rest_offsets(const BoneMatch& m, const std::vector<V3>& rig_pos, const RestSkeleton& body) {
   std::vector<M3> C(size_t(kNumJoints), M3::identity());
   for (int j = 0; j < kNumJoints; ++j) {
+    const Rest kind = rest_kind(j);
+    if (kind == Rest::torso) continue;
     const int p = body.parents[size_t(j)], c = kSmplxBoneChild[j];
-    if (p >= 0) C[size_t(j)] = C[size_t(p)];
-    if (c < 0 || m.node_of[size_t(j)] < 0 || m.node_of[size_t(c)] < 0) continue;
+    C[size_t(j)] = C[size_t(p)];  // limbs hang from the torso: p >= 0
+    if (kind == Rest::follow || c < 0 || m.node_of[size_t(j)] < 0 || m.node_of[size_t(c)] < 0) continue;
     const V3 ds = rig_pos[size_t(c)] - rig_pos[size_t(j)], dt = body.joints[size_t(c)] - body.joints[size_t(j)];
     if (norm(ds) > 0 && norm(dt) > 0) C[size_t(j)] = rotation_between(dt / norm(dt), ds / norm(ds));
   }

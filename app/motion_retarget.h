@@ -5,10 +5,12 @@
 //   - A is the rotation taking the rig's world to haha's (Y up, facing +Z, left = +X): the
 //     rig's rest left (left hip - right hip) and up (pelvis -> head) snapped to the nearest
 //     axes, so an axis-aligned file turns exactly;
-//   - C_j is the rest offset of the bone: the smallest rotation taking the SMPL-X rest bone
-//     direction (j -> kSmplxBoneChild[j]) to the rig's rest bone direction, so an A-pose rest
-//     and a T-pose rest land with the same limb directions; joints without a bound child
-//     take their parent's (a hand hangs along its forearm);
+//   - C_j is the rest offset of a limb's bone (thigh, shin, upper arm, forearm, hand,
+//     finger): the smallest rotation taking the SMPL-X rest bone direction
+//     (j -> kSmplxBoneChild[j]) to the rig's, so an A-pose rest and a T-pose rest land with
+//     the same limb directions; a limb joint without a bound child, an ankle or a foot takes
+//     its parent's (a hand hangs along its forearm). The torso, collars, neck and head keep
+//     C = I: their rest directions differ between skeletons by build, not by pose;
 // and a joint the rig lacks keeps its parent's world rotation (rests locally): a rig's bone
 // that no joint takes folds into its bound ancestor by working in world space. Local
 // axis-angle follows from the parent chain, L_j = G_parent^T G_j.
