@@ -127,6 +127,21 @@ TEST(MotionRetarget, ZUpRigFacingAnotherWayTurnsIntoHahasWorld) {
   expect_limbs_match(m, back, 0.5);
 }
 
+// A rig built otherwise (an upright neck and head, a straight back) but posed the same: its
+// torso's turns transfer as they are, not bent onto SMPL-X's own bone directions.
+TEST(MotionRetarget, TorsoOfAnotherBuildKeepsItsTurns) {
+  const RestSkeleton rest = rest_skeleton(test::low_body());
+  const Motion m = demo("kick", 24);
+  test::Rig rig = test::make_rig(m, rest, mixamo_specs(), 0, 0, 100);
+  for (size_t b = 1; b <= 5; ++b) {  // Spine .. Head straight above their parents
+    const V3 below = rig.bones[size_t(rig.bones[b].parent)].rest_pos;
+    rig.bones[b].rest_pos = below + V3(0, norm(rig.bones[b].rest_pos - below), 0);
+  }
+  const std::string path = temp_file("upright.bvh").string();
+  write_text_file(path, test::rig_bvh(rig));
+  expect_limbs_match(m, retarget_file(path, "mixamo", 22), 0.5);
+}
+
 TEST(MotionRetarget, MixamoGlbWithRotatedBoneAxesInAPose) {
   const RestSkeleton rest = rest_skeleton(test::low_body());
   const Motion m = demo("kick", 30);
