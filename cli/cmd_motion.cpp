@@ -14,8 +14,10 @@
 
 HAHA_COMMAND(motion) {
   auto o = std::make_shared<haha::MotionRunOptions>();
-  auto* sub = app.add_subcommand("motion", "Write a short procedural SMPL-X motion (AMASS-style .npz) for haha render");
-  sub->add_option("--out", o->out, "output .npz (poses (T,165), trans (T,3), mocap_frame_rate)")->required();
+  auto* sub = app.add_subcommand("motion",
+                                 "Write an SMPL-X motion (AMASS-style .npz) for haha render: procedural, from a video or "
+                                 "retargeted from another rig; or a motion as BVH");
+  sub->add_option("--out", o->out, "output .npz (poses (T,165), trans (T,3), mocap_frame_rate, up); .bvh with --in")->required();
   sub->add_option("--kind", o->kind, "wave, walk, turn or kick (a high front kick with each leg)")->capture_default_str();
   sub->add_option("--frames", o->frames, "number of frames (one loop of the motion)")->capture_default_str();
   auto* fps = sub->add_option("--fps", o->fps, "frame rate stored in the file (with --retarget: resample to it; default the file's)")
