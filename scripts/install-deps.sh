@@ -9,7 +9,8 @@ if [ "${HAHA_BUILD_ONLY:-0}" = 1 ]; then
 fi
 pkgs=(build-essential cmake ninja-build pkg-config git
       libtinygltf-dev nlohmann-json3-dev libstb-dev libdraco-dev libopenmesh-dev
-      libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev ffmpeg)
+      libopenimageio-dev libcli11-dev libzip-dev zlib1g-dev libnanoflann-dev ffmpeg
+      libassimp-dev)
 # The tests and benchmarks (GoogleTest, Google Benchmark), `haha bench`'s plots (gnuplot) and
 # the Python package's test (python3-numpy for Debian's /usr/bin/python3): not for the demo,
 # which builds `haha` alone with HAHA_BUILD_TESTS=OFF.
