@@ -84,12 +84,7 @@ void fold_frame(const std::vector<BodyPart>& part, const float* p, const float* 
 }  // namespace
 
 bool parts_kept_apart(BodyPart a, BodyPart b) {
-  if (a == b) return false;
-  if (a == BodyPart::Garment || b == BodyPart::Garment) {
-    const BodyPart o = a == BodyPart::Garment ? b : a;
-    return o == BodyPart::LeftArm || o == BodyPart::RightArm;
-  }
-  return true;
+  return a != b && a != BodyPart::Garment && b != BodyPart::Garment;
 }
 
 std::vector<BodyPart> body_part_of_vertices(const BodyModel& body) {
@@ -105,11 +100,11 @@ std::vector<BodyPart> body_part_of_vertices(const BodyModel& body) {
 }
 
 std::vector<float> part_clearance_bounds(const BodyModel& body, const std::vector<std::vector<float>>& posed,
-                                         const std::vector<std::vector<float>>& dirs, float cap, float garment_cap) {
-  const std::vector<BodyPart> part = body_part_of_vertices(body);
-  std::vector<float> bound(part.size());
-  for (size_t v = 0; v < part.size(); ++v) bound[v] = part[v] == BodyPart::Garment ? garment_cap : cap;
-  const float cell = 2 * std::max(cap, 1e-3f);  // a body vertex looks one cell around its own
+                                         const std::vector<std::vector<float>>& dirs, float cap) {
+  std::vector<BodyPart> part = body_part_of_vertices(body);
+  part.resize(size_t(body.num_body_verts()));  // the garment's vertices hold nothing and are not held
+  std::vector<float> bound(part.size(), cap);
+  const float cell = 2 * std::max(cap, 1e-3f);  // a vertex looks one cell around its own
   for (size_t f = 0; f < posed.size() && f < dirs.size(); ++f) fold_frame(part, posed[f].data(), dirs[f].data(), cell, bound);
   for (float& b : bound) b = std::max(0.0f, b);
   return bound;

@@ -12,8 +12,11 @@
 // the other part (d.u <= 0) is not held. Parts: the trunk (pelvis, spine, collars, neck,
 // head, face), each arm from the shoulder joint with its hand, each leg from the hip joint
 // with its foot; a vertex belongs to the part carrying most of its skinning weight. A
-// garment appended to the body (body/garment.h) is a part of its own, held off the arms only:
-// it wraps the trunk and the legs by design.
+// garment appended to the body (body/garment.h) is a part of its own that nothing holds: it
+// wraps the trunk and the legs by design, and held off the arms as well (tried) a flared
+// skirt stayed narrower than it is where the hands swing beside it (the demo subject: the
+// textured mesh 0.29 dB lower, 283 of its 672 vertices held; docs/results.md, "What the
+// merge costs on real footage").
 #pragma once
 
 #include <cstdint>
@@ -28,15 +31,15 @@ enum class BodyPart : int8_t { Trunk = 0, LeftArm, RightArm, LeftLeg, RightLeg, 
 // The part of each vertex (num_verts).
 std::vector<BodyPart> body_part_of_vertices(const BodyModel& body);
 
-// Whether the surfaces of parts a and b must stay apart (different parts, not a garment
-// with the trunk or a leg).
+// Whether the surfaces of parts a and b must stay apart (different parts of the body; a
+// garment with nothing).
 bool parts_kept_apart(BodyPart a, BodyPart b);
 
-// Per vertex (num_verts) the largest outward h that keeps the bisector rule above in every
-// frame: posed[f] and dirs[f] are frame f's posed vertices and posed normal directions
-// (num_verts x 3 each). At most `cap` (`garment_cap` for a garment's vertices; a vertex no
-// other part comes near gets its cap), at least 0.
+// Per body vertex (num_body_verts) the largest outward h that keeps the bisector rule above
+// in every frame: posed[f] and dirs[f] are frame f's posed vertices and posed normal
+// directions (num_verts x 3 each). At most `cap` (a vertex no other part comes near gets
+// it), at least 0.
 std::vector<float> part_clearance_bounds(const BodyModel& body, const std::vector<std::vector<float>>& posed,
-                                         const std::vector<std::vector<float>>& dirs, float cap, float garment_cap);
+                                         const std::vector<std::vector<float>>& dirs, float cap);
 
 }  // namespace haha

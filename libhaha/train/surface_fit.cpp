@@ -184,7 +184,7 @@ class SurfaceFit {
     h_adam_.add_group("h", body.num_body_verts(), opt_.lr);
     if (body.has_garment()) h_adam_.add_group("h_garment", V - body.num_body_verts(), opt_.garment_lr);
     pose_frames(video_betas(frames, body.num_shape));
-    if (opt_.part_clearance) hold_parts_apart();
+    if (opt_.part_clearance && !opt_.garment_only) hold_parts_apart();
   }
 
   // One step: returns the data loss (NaN when the step was skipped for a non-finite value).
@@ -262,11 +262,10 @@ class SurfaceFit {
     }
   }
 
-  // Lowers the outward bounds so that no part grows over another in any frame.
+  // Lowers the body's outward bounds so that no part grows over another in any frame.
   void hold_parts_apart() {
-    const std::vector<float> clear =
-        part_clearance_bounds(body_, base_, dir_, float(opt_.max_out), float(opt_.garment_max_out));
-    for (int v = 0; v < body_.num_verts; ++v) {
+    const std::vector<float> clear = part_clearance_bounds(body_, base_, dir_, float(opt_.max_out));
+    for (int v = 0; v < body_.num_body_verts(); ++v) {
       part_held_ += clear[size_t(v)] < 0.5f * upper_[size_t(v)];
       upper_[size_t(v)] = std::min(upper_[size_t(v)], clear[size_t(v)]);
     }

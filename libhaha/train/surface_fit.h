@@ -44,7 +44,7 @@ struct SurfaceFitReport {
   double mean_mm = 0;             // mean |h| over the vertices
   double p95_mm = 0, max_mm = 0;  // 95th percentile and largest outward h
   int side = 0;                   // longer image side of the last level
-  int part_held = 0;              // vertices whose outward bound another part more than halved
+  int part_held = 0;              // body vertices whose outward bound another part more than halved
 };
 
 // Fits h to the frames (their params as given; betas from video_betas). `progress`
