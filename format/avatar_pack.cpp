@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "body/face_frames.h"
+#include "body/joint_names.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "format/avatar_validate.h"
@@ -26,17 +27,6 @@ namespace {
 
 constexpr int kFloat = 5126, kUByte = 5121, kUShort = 5123, kUInt = 5125;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-// SMPL-X joint names, in joint order (node names of the skeleton).
-const char* const kJointNames[kNumJoints] = {
-    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2", "left_ankle",
-    "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar", "right_collar", "head",
-    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "jaw",
-    "left_eye", "right_eye", "left_index1", "left_index2", "left_index3", "left_middle1", "left_middle2",
-    "left_middle3", "left_pinky1", "left_pinky2", "left_pinky3", "left_ring1", "left_ring2", "left_ring3",
-    "left_thumb1", "left_thumb2", "left_thumb3", "right_index1", "right_index2", "right_index3",
-    "right_middle1", "right_middle2", "right_middle3", "right_pinky1", "right_pinky2", "right_pinky3",
-    "right_ring1", "right_ring2", "right_ring3", "right_thumb1", "right_thumb2", "right_thumb3"};
 
 Json float_array(const float* v, size_t n) {
   Json a = Json::array();
@@ -591,7 +581,7 @@ void add_skeleton(GlbDoc& d, const BodyModel& b, const RestBody& rest, bool with
     const int p = b.parents[size_t(j)];
     float t[3];
     for (int k = 0; k < 3; ++k) t[k] = float(joints[size_t(j) * 3 + k] - (p >= 0 ? joints[size_t(p) * 3 + k] : 0.0));
-    Json node = {{"name", kJointNames[j]}, {"translation", float_array(t, 3)}};
+    Json node = {{"name", kSmplxJointNames[j]}, {"translation", float_array(t, 3)}};
     if (!children[size_t(j)].empty()) node["children"] = children[size_t(j)];
     d.nodes.push_back(node);
   }
