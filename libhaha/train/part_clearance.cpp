@@ -35,6 +35,9 @@ struct VertexGrid {
     for (int k = 0; k < 3; ++k) lo[k] = hi[k] = count > 0 ? p[k] : 0.0f;
     for (int v = 0; v < count; ++v)
       for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[3 * size_t(v) + k]), hi[k] = std::max(hi[k], p[3 * size_t(v) + k]);
+    // At most 256 cells a side: a body spans a few metres, but a wild fit must not make the
+    // grid the allocation.
+    for (int k = 0; k < 3; ++k) cell = std::max(cell, (hi[k] - lo[k]) / 255.0f);
     for (int k = 0; k < 3; ++k) n[k] = std::max(1, int((hi[k] - lo[k]) / cell) + 1);
     std::vector<int32_t> of(static_cast<size_t>(count));
     start.assign(size_t(n[0]) * n[1] * n[2] + 1, 0);
@@ -52,7 +55,7 @@ struct VertexGrid {
 };
 
 // One frame's bound for every vertex, folded into `bound` (which starts at the caps) by the
-// minimum. Cells are `cell` wide; a vertex whose bound is b looks only as far as 2 b: beyond
+// minimum. Cells are at least `cell` wide; a vertex whose bound is b looks only as far as 2 b: beyond
 // it the bisector bound |d|^2 / (2 d.u) >= |d| / 2 exceeds b.
 void fold_frame(const std::vector<BodyPart>& part, const float* p, const float* u, float cell, std::vector<float>& bound) {
   const int V = int(part.size());
@@ -61,7 +64,7 @@ void fold_frame(const std::vector<BodyPart>& part, const float* p, const float* 
     const float* a = p + 3 * v;
     const float* n = u + 3 * v;
     float b = bound[size_t(v)];
-    const int rings = int(std::ceil(2 * b / cell));
+    const int rings = int(std::ceil(2 * b / grid.cell));
     const int c[3] = {grid.coord(a, 0), grid.coord(a, 1), grid.coord(a, 2)};
     for (int z = std::max(0, c[2] - rings); z <= std::min(grid.n[2] - 1, c[2] + rings); ++z)
       for (int y = std::max(0, c[1] - rings); y <= std::min(grid.n[1] - 1, c[1] + rings); ++y)
