@@ -42,6 +42,25 @@ std::vector<size_t> chosen_rows(const std::vector<std::string>& keys) {
   return rows;
 }
 
+// The --variants keys, with --pose-from's added when missing.
+std::vector<std::string> variant_keys(const EvalRunOptions& o) {
+  std::vector<std::string> keys = o.variants;
+  if (!o.pose_from.empty() && !keys.empty() && std::find(keys.begin(), keys.end(), o.pose_from) == keys.end())
+    keys.push_back(o.pose_from);
+  return keys;
+}
+
+// The rows in the table's order, --pose-from's first (its poses are the others').
+std::vector<size_t> scoring_order(std::vector<size_t> rows, const std::string& pose_from) {
+  if (pose_from.empty()) return rows;
+  const auto* it = std::find(std::begin(kPaperVariantKeys), std::end(kPaperVariantKeys), pose_from);
+  if (it == std::end(kPaperVariantKeys))
+    fail("--pose-from", "unknown variant '" + pose_from + "' (expected mesh, full, naive or haha)");
+  const size_t first = size_t(it - std::begin(kPaperVariantKeys));
+  std::stable_partition(rows.begin(), rows.end(), [&](size_t i) { return i == first; });
+  return rows;
+}
+
 // The part mask of every scored frame (`haha synth --part-masks`: DATA/part_masks/, named as
 // the frame's image), resized as the frame was. Throws naming the file when one is missing.
 // One part so far (the garment), so the masks need no part name.
@@ -67,7 +86,7 @@ void load_part_masks(Dataset& ds, Split split, int resolution, std::vector<Train
 
 EvalReport run_eval(const EvalRunOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  chosen_rows(o.variants);  // a bad key fails before minutes of loading
+  scoring_order(chosen_rows(variant_keys(o)), o.pose_from);  // a bad key fails before minutes of loading
   if (o.background != "black" && o.background != "white")
     fail("--background", "expected black or white, got '" + o.background + "'");
   const Split split = parse_split(o.split, "--split");
@@ -104,6 +123,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   opt.keep_images = o.sheet_frames;
   if (o.antialias < -1 || o.antialias > 1) fail("--antialias", "expected -1 (the run's), 0 or 1");
   opt.antialias = o.antialias >= 0 ? o.antialias == 1 : info.config.eval_antialias;
+  opt.coverage_oracle = o.coverage_oracle;
   std::unique_ptr<LpipsNet<float>> alex;
   LpipsWeights lw;
   const std::string lp = o.lpips_weights.empty() ? info.lpips_weights_path : o.lpips_weights;
@@ -142,14 +162,21 @@ EvalReport run_eval(const EvalRunOptions& o) {
     std::snprintf(m, sizeof m, "eval depth margin=%g", o.depth_margin);
     r.switches.push_back(m);
   }
+  if (!o.pose_from.empty()) r.switches.push_back("eval poses from " + o.pose_from);
+  if (o.coverage_oracle) r.switches.push_back("eval mesh coverage oracle");
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
   const std::vector<EvalVariant> rows = paper_variants(filtered, full);
-  const std::vector<size_t> chosen = chosen_rows(o.variants);
+  const std::vector<size_t> chosen = scoring_order(chosen_rows(variant_keys(o)), o.pose_from);
+  std::vector<SmplxParams> shared;  // --pose-from: the first variant's poses
   for (size_t i : chosen) {
     const EvalVariant& v = rows[i];
     r.variants.push_back(evaluate_variant(v, frames, opt));
     r.variants.back().paper_row = i;
+    if (!o.pose_from.empty() && !opt.poses) {
+      shared = r.variants.back().poses;
+      opt.poses = &shared;
+    }
     if (o.print_table) {
       const VariantEval& e = r.variants.back();
       std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians);

@@ -27,6 +27,11 @@ struct EvalRunOptions {
   std::vector<std::string> variants;  // rows to evaluate (kPaperVariantKeys); empty: all four
   bool print_table = true;           // one line per variant on stdout while it runs
   double depth_margin = -1;          // metres of the merge's depth test; < 0: the run's (s3.depth_margin)
+  // A variant key (kPaperVariantKeys): that variant is scored first (added to `variants` if
+  // missing) and every other one at the poses its test-time optimisation found. Empty: each
+  // variant fits its own poses.
+  std::string pose_from;
+  bool coverage_oracle = false;      // EvalOptions::coverage_oracle (a diagnostic)
   int antialias = -1;                // antialiased mesh silhouette (EvalOptions::antialias): 1 on
                                      // (--antialias), 0 off (--no-antialias), -1 the run's eval.antialias
 };

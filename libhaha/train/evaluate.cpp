@@ -124,6 +124,29 @@ SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Lbs<flo
   return best;
 }
 
+// EvalOptions::coverage_oracle: the mesh layer of `req` (rendered into `buf` already) with its
+// coverage times the true matte and no depth test where the matte is under one half, then the
+// merge again with that layer.
+void render_with_oracle_coverage(const AvatarRenderRequest& req, const std::vector<float>& matte,
+                                 AvatarRenderBuffers& buf) {
+  const size_t P = matte.size();
+  std::vector<float> depth(buf.mesh.depth, buf.mesh.depth + P), color(buf.mesh.color, buf.mesh.color + 3 * P),
+      mask(buf.mesh.mask, buf.mesh.mask + P);
+  for (size_t q = 0; q < P; ++q) {
+    mask[q] *= matte[q];
+    if (matte[q] < 0.5f) depth[q] = INFINITY;
+  }
+  const MeshLayerView layer{depth.data(), color.data(), mask.data()};
+  AvatarRenderRequest r = req;
+  r.texture = nullptr;
+  r.mesh_layer = &layer;
+  AvatarRenderBuffers again;
+  render_avatar(r, again);
+  buf.image = again.image;
+  buf.color_front = again.color_front;
+  buf.alpha = again.alpha;
+}
+
 }  // namespace
 
 VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>& frames, const EvalOptions& opt) {
@@ -140,6 +163,9 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   out.num_gaussians = v.gaussians ? a.gaussians.size() : 0;
   out.storage_bytes = storage_bytes(a, v.mesh, v.gaussians);
   if (frames.empty()) return out;
+  if (opt.poses && opt.poses->size() != frames.size())
+    fail("evaluate", v.name + ": " + std::to_string(opt.poses->size()) + " fixed poses for " +
+                         std::to_string(frames.size()) + " frames");
 
   Lbs<float> lbs(body);
   const AvatarViews views(a);
@@ -162,7 +188,10 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     for (int c = 0; c < 3; ++c) req.background[c] = opt.background[c];
 
     FrameEval fe;
-    if (opt.tto_steps > 0) {
+    if (opt.poses) {
+      p.pose = (*opt.poses)[fi].pose;
+      p.transl = (*opt.poses)[fi].transl;
+    } else if (opt.tto_steps > 0) {
       // Test-time pose optimisation coarse to fine: three quarters of the steps on the frame
       // downscaled to opt.tto_resolution, the rest at the scored size from there. The coarse
       // steps are cheap; the fine ones remove what the coarse image biases (Gaussians fitted
@@ -184,10 +213,12 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
         p = optimise_test_pose(f, p, lbs, a, views, v, opt, opt.tto_steps, fe);
       }
     }
+    out.poses.push_back(p);
     const auto t0 = std::chrono::steady_clock::now();
     lbs.forward(p, verts.data(), nullptr, nullptr);
     render_avatar(req, buf);
     fe.render_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (opt.coverage_oracle && v.mesh) render_with_oracle_coverage(req, f.mask, buf);
     fe.psnr = psnr(buf.image.data(), gt.data(), H, W);
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
     const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);

@@ -52,6 +52,13 @@ struct EvalOptions {
   // the final render: partial coverage at the mesh's edges, and a silhouette gradient to the
   // pose.
   bool antialias = false;
+  // Fixed poses, one per frame (another variant's VariantEval::poses): no test-time pose
+  // optimisation, every variant scored at the same pose. Null: each variant fits its own.
+  const std::vector<SmplxParams>* poses = nullptr;
+  // Diagnostic: the mesh layer's coverage multiplied by the frame's true matte, and its depth
+  // test only where the matte is at least half: the merge as it would be if the mesh knew
+  // the person's outline, the ceiling of any learned mesh coverage.
+  bool coverage_oracle = false;
 };
 
 // Pixels within this distance of the ground-truth mask's outline make the outline PSNR.
@@ -81,6 +88,7 @@ struct VariantEval {
   double psnr_part = 0;     // mean over the frames whose part has pixels (NaN: none has)
   double transmittance_part = 0;  // the same frames' mean transmittance over the part
   std::vector<FrameEval> frames;
+  std::vector<SmplxParams> poses;  // the pose each frame was scored at (after its optimisation)
 };
 
 // Bytes to store the variant: 56 per Gaussian (14 float32 values, as the paper counts)

@@ -2,7 +2,8 @@
 // tiny schedule) -> motion -> synth --motion --part-masks -> eval --data --part garment.
 // The run trained on the turn is scored on the walk's frames, with the PSNR over the skirt's
 // pixels; scored again with a looser depth test (--depth-margin), the naive merge shows
-// Gaussians the run's test hid. Skips when the executable has not been built next to this test (build/cli/haha).
+// Gaussians the run's test hid; with --pose-from every row is scored at the full Gaussians'
+// poses. Skips when the executable has not been built next to this test (build/cli/haha).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -86,6 +87,22 @@ TEST(SynthMotionEvalSlow, ARunTrainedOnTheTurnIsScoredOnAWalkAndItsSkirt) {
   EXPECT_NE(loose.dump().find("eval depth margin=0.5"), std::string::npos) << loose.dump();
   EXPECT_EQ(run("eval --run '" + d + "/run' --variants naive --depth-margin 2 --out '" + d + "/bad'", log), 1);
   EXPECT_NE(slurp(log).find("--depth-margin"), std::string::npos) << slurp(log);
+  // Every row at the poses the full Gaussians found: they are scored first, added when not
+  // asked for, and the report says so.
+  ASSERT_EQ(run("eval --run '" + d + "/run' --data '" + d + "/walk' --variants naive --pose-from full --tto-steps 3 "
+                "--coverage-oracle --out '" + d + "/shared'",
+                log),
+            0)
+      << slurp(log);
+  const auto shared = nlohmann::json::parse(slurp(dir / "shared" / "report.json"));
+  ASSERT_EQ(shared["variants"].size(), 2u);
+  EXPECT_EQ(shared["variants"][0]["name"], "full Gaussians");
+  EXPECT_EQ(shared["variants"][1]["name"], "naive merge");
+  EXPECT_EQ(shared["variants"][1]["frames"][0]["tto_loss_start"].get<double>(), 0.0);  // no fit of its own
+  EXPECT_NE(shared.dump().find("eval poses from full"), std::string::npos);
+  EXPECT_NE(shared.dump().find("eval mesh coverage oracle"), std::string::npos);
+  EXPECT_EQ(run("eval --run '" + d + "/run' --pose-from all --out '" + d + "/bad'", log), 1);
+  EXPECT_NE(slurp(log).find("--pose-from: unknown variant 'all'"), std::string::npos) << slurp(log);
   fs::remove_all(dir);
 }
 

@@ -118,6 +118,66 @@ TEST(Evaluate, CoarseToFinePoseOptimisationRecoversTheShift) {
   for (const VariantEval& r : {full, c2f}) EXPECT_LE(r.frames[0].tto_loss_end, r.frames[0].tto_loss_start);
 }
 
+TEST(Evaluate, FixedPosesScoreEveryVariantAtTheSamePose) {
+  // The full Gaussians find the shifted pose; the mesh, given those poses, scores as if its
+  // frames had been fitted exactly there, with no optimisation of its own.
+  const Avatar a = scene_truth();
+  const std::vector<TrainFrame> f = shifted_frames(a, 40);
+  EvalOptions o;
+  o.premultiplied = true;
+  o.tto_steps = 30;
+  o.lr_pose = 1e-3;
+  const VariantEval gs = evaluate_variant({"full", &a, false, true}, f, o);
+  ASSERT_EQ(gs.poses.size(), f.size());
+  EXPECT_GT(std::abs(gs.poses[0].transl[0] - f[0].params.transl[0]), 1e-3f);  // it moved
+  o.poses = &gs.poses;
+  const VariantEval mesh = evaluate_variant({"mesh", &a, true, false}, f, o);
+  EXPECT_EQ(mesh.frames[0].tto_loss_start, 0.0);  // no optimisation ran
+  EXPECT_EQ(mesh.poses[0].transl, gs.poses[0].transl);
+  std::vector<TrainFrame> at = f;
+  at[0].params.pose = gs.poses[0].pose;
+  at[0].params.transl = gs.poses[0].transl;
+  EvalOptions fixed = o;
+  fixed.poses = nullptr;
+  fixed.tto_steps = 0;
+  EXPECT_DOUBLE_EQ(mesh.psnr, evaluate_variant({"mesh", &a, true, false}, at, fixed).psnr);
+  const std::vector<SmplxParams> wrong(2);
+  o.poses = &wrong;
+  EXPECT_THROW(evaluate_variant({"mesh", &a, true, false}, f, o), Error);  // one pose per frame
+}
+
+TEST(Evaluate, CoverageOracleCutsTheMeshToTheTrueMatte) {
+  const Avatar a = scene_truth();
+  std::vector<TrainFrame> f = scene_frames(a, 1);
+  EvalOptions o;
+  o.tto_steps = 0;
+  o.premultiplied = true;
+  o.keep_images = 1;
+  const VariantEval plain = evaluate_variant({"haha", &a, true, true}, f, o);
+  o.coverage_oracle = true;
+  // The matte is the avatar's own silhouette: nothing to cut, the same image.
+  const VariantEval same = evaluate_variant({"haha", &a, true, true}, f, o);
+  EXPECT_EQ(same.frames[0].image, plain.frames[0].image);
+  // A matte cut in half: the mesh vanishes from the other half, only Gaussians remain there,
+  // and the Gaussians its depth test hid there show.
+  const int W = f[0].camera.width, H = f[0].camera.height;
+  for (int y = 0; y < H; ++y)
+    for (int x = W / 2; x < W; ++x) f[0].mask[size_t(y * W + x)] = 0;
+  const VariantEval cut = evaluate_variant({"mesh", &a, true, false}, f, o);
+  const VariantEval both = evaluate_variant({"haha", &a, true, true}, f, o);
+  double right_mesh = 0, left_mesh = 0, right_both = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = 3 * size_t(y * W + x) + c;
+        (x >= W / 2 ? right_mesh : left_mesh) += cut.frames[0].image[i];
+        if (x >= W / 2) right_both += both.frames[0].image[i];
+      }
+  EXPECT_EQ(right_mesh, 0.0);  // black background where the matte is 0
+  EXPECT_GT(left_mesh, 1.0);
+  EXPECT_GT(right_both, 0.1);  // the hair Gaussians on that side are no longer hidden
+}
+
 TEST(Evaluate, StorageCountsGaussiansAndTexture) {
   const Avatar a = scene_truth(32);
   const int64_t n = a.gaussians.size();
