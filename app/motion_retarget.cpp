@@ -80,6 +80,15 @@ double leg_scale(const BoneMatch& m, const std::vector<V3>& rig_pos, const RestS
   return r > 0 ? norm(body.joints[size_t(top)] - body.joints[0]) / r : 1.0;
 }
 
+// RetargetReport::rest_torso_deg (rig_pos already turned by A).
+double rest_torso_angle(const BoneMatch& m, const std::vector<V3>& rig_pos, const RestSkeleton& body) {
+  const int top = first_bound(m, {12, 15});
+  if (top < 0) return NAN;
+  const V3 a = rig_pos[size_t(top)] - rig_pos[0], b = body.joints[size_t(top)] - body.joints[0];
+  if (!(norm(a) > 0) || !(norm(b) > 0)) return NAN;
+  return std::acos(std::clamp(dot(a, b) / (norm(a) * norm(b)), -1.0, 1.0)) * 180 / M_PI;
+}
+
 // Which joints take a rest offset from their bone's direction: the limbs (thighs, shins,
 // upper arms, forearms, hands, fingers), whose rest directions differ by pose (an A-pose).
 // The torso, collars, neck and head keep SMPL-X's rest: their directions differ between
@@ -142,6 +151,7 @@ Motion retarget_rig(const RigAnimation& rig, const BoneMatch& m, const BodyModel
   RetargetReport rep;
   rep.alignment = A;
   rep.scale = leg_scale(m, rig_pos, skel);
+  rep.rest_torso_deg = rest_torso_angle(m, rig_pos, skel);
   const std::vector<M3> C = rest_offsets(m, rig_pos, skel);
   Motion out;
   out.source = rig.source;

@@ -40,6 +40,11 @@ struct RetargetReport {
   double scale = 1;          // body's leg length / rig's (rig units -> metres)
   int contacts = 0;          // foot contacts held
   Mat3<double> alignment = Mat3<double>::identity();  // A: the rig's world to haha's
+  // Degrees between the torso (pelvis to neck) of the rig's rest, turned by A, and SMPL-X's
+  // rest torso. The torso, neck and head transfer the rig's turn from its rest, so a rest
+  // that is not standing (a file whose node transforms are a clip's first frame, not its
+  // bind pose) leans them by this much in every frame. NaN: no neck or head bound.
+  double rest_torso_deg = 0;
 };
 
 // Throws haha::Error "rig.source: problem" when the map binds no pelvis, or no left-right

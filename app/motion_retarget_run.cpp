@@ -11,6 +11,9 @@
 
 namespace haha {
 
+// A rig's rest torso further than this from SMPL-X's is not a standing rest: worth a warning.
+constexpr double kRestTorsoWarnDeg = 20;
+
 void run_motion_retarget(const MotionRetargetOptions& o, const BodyModel& body) {
   if (!(o.fps >= 0 && o.fps <= 1000)) fail("--fps", "must be in (0, 1000]");
   // The map first: a bad map file fails before the (possibly long) clip is read.
@@ -26,8 +29,15 @@ void run_motion_retarget(const MotionRetargetOptions& o, const BodyModel& body) 
   Motion m = retarget_rig(rig, match, body, o.retarget, &rep);
   std::string rest;
   for (int j : rep.at_rest) rest += (rest.empty() ? "" : ", ") + std::string(kSmplxJointNames[j]);
-  std::printf("map '%s': %d of %d SMPL-X joints matched (%zu of 22 body joints); at rest: %s\n", match.map.c_str(), match.matched,
-              kNumJoints, 22 - rep.at_rest.size(), rest.empty() ? "none" : rest.c_str());
+  std::printf("map '%s': %d of %d SMPL-X joints matched (%zu of 22 body joints); at rest: %s; the rig's rest torso %.1f deg "
+              "from SMPL-X's\n",
+              match.map.c_str(), match.matched, kNumJoints, 22 - rep.at_rest.size(), rest.empty() ? "none" : rest.c_str(),
+              rep.rest_torso_deg);
+  if (rep.rest_torso_deg > kRestTorsoWarnDeg)
+    std::printf("warning: %s: the rig's rest pose leans %.0f deg from a standing one (pelvis to neck): the torso, neck and "
+                "head follow the rig's turns from that rest and lean with it; the file's node transforms are not its "
+                "standing bind pose (an animation exported without its rig's rest?)\n",
+                o.in.c_str(), rep.rest_torso_deg);
   std::printf("%s\n", retarget_check_line(check_retarget(rig, match, m, rest_skeleton(body), rep, o.retarget.contacts)).c_str());
   if (o.fps > 0 && o.fps != m.fps) m = resample_motion(m, o.fps);
   write_motion_npz(m, o.out);

@@ -142,6 +142,30 @@ TEST(MotionRetarget, TorsoOfAnotherBuildKeepsItsTurns) {
   expect_limbs_match(m, retarget_file(path, "mixamo", 22), 0.5);
 }
 
+// A rest whose torso bends forward (a file whose node transforms are a clip's first frame):
+// the report measures the lean the torso then keeps in every frame.
+TEST(MotionRetarget, ReportsARestTorsoThatDoesNotStand) {
+  const RestSkeleton rest = rest_skeleton(test::low_body());
+  const Motion m = demo("walk", 8);
+  const auto lean = [&](double bend_deg) {
+    test::Rig rig = test::make_rig(m, rest, mixamo_specs(), 0, 0, 100);
+    const double c = std::cos(bend_deg * M_PI / 180), s = std::sin(bend_deg * M_PI / 180);
+    const V3 pelvis = rig.bones[0].rest_pos;
+    for (size_t b = 1; b <= 13; ++b) {  // Spine .. the arms: the upper body turned about the pelvis's X axis
+      const V3 d = rig.bones[b].rest_pos - pelvis;
+      rig.bones[b].rest_pos = pelvis + V3(d.x, c * d.y - s * d.z, s * d.y + c * d.z);
+    }
+    const std::string path = temp_file("bent.bvh").string();
+    write_text_file(path, test::rig_bvh(rig));
+    const RigAnimation r = read_rig_animation(path);
+    RetargetReport rep;
+    retarget_rig(r, choose_bone_map(builtin_bone_maps(), r.names), test::low_body(), RetargetOptions{false, {}}, &rep);
+    return rep.rest_torso_deg;
+  };
+  EXPECT_LT(lean(0), 0.5);
+  EXPECT_NEAR(lean(40), 40, 3);
+}
+
 TEST(MotionRetarget, MixamoGlbWithRotatedBoneAxesInAPose) {
   const RestSkeleton rest = rest_skeleton(test::low_body());
   const Motion m = demo("kick", 30);

@@ -318,11 +318,19 @@ export function raisedArmPose() {
 
 // The avatar packed with a glTF animation (a 40-frame wave at 30 fps, `haha pack
 // --animation`, default keyframe reduction) and `haha render --animation 0`'s frame 30 of it,
-// at the camera of the motion test (cam.json in work).
+// at the camera of the motion test (cam.json in work). HAHA_TEST_ANIMATION_MOTION=M.npz packs
+// that motion instead (30 fps, at least 31 frames: a clip retargeted from another rig with
+// `haha motion --retarget ... --fps 30`, say, which cannot be committed).
 export const ANIMATION_FRAME = 30, ANIMATION_FPS = 30;
 export function animationReference(run, PNG, runDir, work, packArgs) {
-  const motion = `${work}/anim_motion.npz`, file = `${work}/avatar_anim.glb`, out = `${work}/ref_anim`;
-  run(['motion', '--kind', 'wave', '--frames', '40', '--fps', String(ANIMATION_FPS), '--out', motion]);
+  const file = `${work}/avatar_anim.glb`, out = `${work}/ref_anim`;
+  let motion = process.env.HAHA_TEST_ANIMATION_MOTION;
+  if (motion) {
+    console.log(`animation: ${motion} (HAHA_TEST_ANIMATION_MOTION) instead of the wave`);
+  } else {
+    motion = `${work}/anim_motion.npz`;
+    run(['motion', '--kind', 'wave', '--frames', '40', '--fps', String(ANIMATION_FPS), '--out', motion]);
+  }
   run(['pack', runDir, '--out', file, ...packArgs, '--animation', motion]);
   fs.rmSync(out, { recursive: true, force: true });
   run(['render', file, '--animation', '0', '--camera', `${work}/cam.json`, '--out', out, '--background', '0,0,0',
