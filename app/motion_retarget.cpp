@@ -113,7 +113,10 @@ std::vector<M3> rest_offsets(const BoneMatch& m, const std::vector<V3>& rig_pos,
     C[size_t(j)] = C[size_t(p)];  // limbs hang from the torso: p >= 0
     if (kind == Rest::follow || c < 0 || m.node_of[size_t(j)] < 0 || m.node_of[size_t(c)] < 0) continue;
     const V3 ds = rig_pos[size_t(c)] - rig_pos[size_t(j)], dt = body.joints[size_t(c)] - body.joints[size_t(j)];
-    if (norm(ds) > 0 && norm(dt) > 0) C[size_t(j)] = rotation_between(dt / norm(dt), ds / norm(ds));
+    // The parent's offset first, then the smallest turn that still remains: a chain turned
+    // rigidly at its root (an A-pose arm, thumb and all) takes that one turn, twist included.
+    const V3 dp = C[size_t(p)] * dt;
+    if (norm(ds) > 0 && norm(dp) > 0) C[size_t(j)] = rotation_between(dp / norm(dp), ds / norm(ds)) * C[size_t(p)];
   }
   return C;
 }
