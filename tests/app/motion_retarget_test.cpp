@@ -109,6 +109,40 @@ TEST(MotionRetarget, MixamoBvhInAPoseWithAnExtraBone) {
   expect_limbs_match(m, retarget_file(path, "mixamo", 22), 1.0);
 }
 
+// The same skeleton with Mixamo's fingers (index, middle, pinky, ring, thumb; three bones each
+// side), the arms, hands and fingers resting 40 degrees down: a thumb points partly forward, so
+// only the arm's own turn, not the smallest turn of its own direction, brings it back.
+TEST(MotionRetarget, APoseFingersTakeTheirArmsTurn) {
+  const RestSkeleton rest = rest_skeleton(test::low_body());
+  Motion m = demo("wave", 24);
+  for (size_t t = 0; t < m.frames.size(); ++t)  // curl the fingers, each its own way
+    for (int j = kLeftHandFirst; j < kNumJoints; ++j) m.frames[t].pose[size_t(3 * j)] = 0.02f * float((j % 7) * (t % 5));
+  std::vector<test::RigBoneSpec> specs = mixamo_specs();
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const char* side : {"Left", "Right"})
+      for (const char* finger : {"Index", "Middle", "Pinky", "Ring", "Thumb"})
+        for (int k = 1; k <= 3; ++k) n.push_back(std::string(side) + "Hand" + finger + std::to_string(k));
+    return n;
+  }();
+  for (size_t i = 0; i < names.size(); ++i) {
+    const int hand = i < 15 ? 9 : 13;  // LeftHand, RightHand in mixamo_specs()
+    const int parent = i % 3 == 0 ? hand : int(specs.size()) - 1;
+    specs.push_back({names[i].c_str(), kLeftHandFirst + int(i), parent});
+  }
+  const test::Rig rig = test::make_rig(m, rest, specs, 40, 0, 100);
+  const std::string path = temp_file("mixamo_fingers.bvh").string();
+  write_text_file(path, test::rig_bvh(rig));
+  const Motion back = retarget_file(path, "mixamo", 52);
+  ASSERT_EQ(back.frames.size(), m.frames.size());
+  for (int j = 0; j < kNumJoints; ++j) {
+    if (j >= 22 && j < kLeftHandFirst) continue;  // jaw and eyes: not in the rig
+    double worst = 0;
+    for (size_t t = 0; t < m.frames.size(); ++t) worst = std::max(worst, angle_deg(m.frames[t], back.frames[t], j));
+    EXPECT_LT(worst, 1.0) << kSmplxJointNames[j];
+  }
+}
+
 TEST(MotionRetarget, ZUpRigFacingAnotherWayTurnsIntoHahasWorld) {
   const RestSkeleton rest = rest_skeleton(test::low_body());
   const Motion m = demo("walk", 24);

@@ -63,8 +63,8 @@ struct RigBoneSpec {
 };
 
 // The rig of `specs` playing `m` (Y-up, haha's world). `a_pose_deg`: the upper arms and
-// forearms rest that far below horizontal (their rest bone directions turned down, hands
-// along the forearms). `axes_seed` != 0: every bone's rest frame is a different rotation
+// forearms rest that far below horizontal (their rest bone directions turned down, the hands
+// and fingers turned with the forearms). `axes_seed` != 0: every bone's rest frame is a different rotation
 // (else identity, as BVH requires). An extra bone sits halfway between its parent and its
 // first child, and wobbles.
 inline Rig make_rig(const Motion& m, const RestSkeleton& s, const std::vector<RigBoneSpec>& specs, double a_pose_deg,
@@ -80,6 +80,7 @@ inline Rig make_rig(const Motion& m, const RestSkeleton& s, const std::vector<Ri
     GA[size_t(j)] = rotation_between(dn, rot_z(sign * a) * dn);
   }
   GA[20] = GA[18], GA[21] = GA[19];
+  for (int j = kLeftHandFirst; j < kNumJoints; ++j) GA[size_t(j)] = j < kRightHandFirst ? GA[20] : GA[21];
   std::vector<V3> X(kNumJoints);  // A-pose rest positions
   for (int j = 0; j < kNumJoints; ++j) {
     const int p = s.parents[size_t(j)];
