@@ -42,12 +42,22 @@ std::vector<size_t> chosen_rows(const std::vector<std::string>& keys) {
   return rows;
 }
 
-// The --variants keys, with --pose-from's added when missing.
+// The --variants keys, with --pose-from's added when missing, and the mesh row for
+// --coverage-oracle texel (it measures the coverage the merges then use).
 std::vector<std::string> variant_keys(const EvalRunOptions& o) {
   std::vector<std::string> keys = o.variants;
-  if (!o.pose_from.empty() && !keys.empty() && std::find(keys.begin(), keys.end(), o.pose_from) == keys.end())
-    keys.push_back(o.pose_from);
+  for (const std::string& k : {o.pose_from, std::string(o.coverage_oracle == "texel" ? "mesh" : "")})
+    if (!k.empty() && !keys.empty() && std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
   return keys;
+}
+
+EvalOptions::CoverageOracle coverage_oracle_mode(const EvalRunOptions& o) {
+  if (o.coverage_oracle.empty()) return EvalOptions::CoverageOracle::none;
+  if (o.coverage_oracle == "pixel") return EvalOptions::CoverageOracle::pixel;
+  if (o.coverage_oracle != "texel") fail("--coverage-oracle", "expected pixel or texel, got '" + o.coverage_oracle + "'");
+  if (o.pose_from == "naive" || o.pose_from == "haha")
+    fail("--coverage-oracle", "texel scores the mesh row before the merges: give --pose-from full or mesh");
+  return EvalOptions::CoverageOracle::texel;
 }
 
 // The rows in the table's order, --pose-from's first (its poses are the others').
@@ -87,6 +97,7 @@ void load_part_masks(Dataset& ds, Split split, int resolution, std::vector<Train
 EvalReport run_eval(const EvalRunOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   scoring_order(chosen_rows(variant_keys(o)), o.pose_from);  // a bad key fails before minutes of loading
+  coverage_oracle_mode(o);
   if (o.background != "black" && o.background != "white")
     fail("--background", "expected black or white, got '" + o.background + "'");
   const Split split = parse_split(o.split, "--split");
@@ -123,7 +134,7 @@ EvalReport run_eval(const EvalRunOptions& o) {
   opt.keep_images = o.sheet_frames;
   if (o.antialias < -1 || o.antialias > 1) fail("--antialias", "expected -1 (the run's), 0 or 1");
   opt.antialias = o.antialias >= 0 ? o.antialias == 1 : info.config.eval_antialias;
-  opt.coverage_oracle = o.coverage_oracle;
+  opt.coverage_oracle = coverage_oracle_mode(o);
   std::unique_ptr<LpipsNet<float>> alex;
   LpipsWeights lw;
   const std::string lp = o.lpips_weights.empty() ? info.lpips_weights_path : o.lpips_weights;
@@ -163,12 +174,13 @@ EvalReport run_eval(const EvalRunOptions& o) {
     r.switches.push_back(m);
   }
   if (!o.pose_from.empty()) r.switches.push_back("eval poses from " + o.pose_from);
-  if (o.coverage_oracle) r.switches.push_back("eval mesh coverage oracle");
+  if (!o.coverage_oracle.empty()) r.switches.push_back("eval mesh coverage oracle " + o.coverage_oracle);
   r.stage_seconds = read_train_seconds(run);
   for (const TrainFrame& f : frames) r.frame_names.push_back(f.name);
   const std::vector<EvalVariant> rows = paper_variants(filtered, full);
   const std::vector<size_t> chosen = scoring_order(chosen_rows(variant_keys(o)), o.pose_from);
   std::vector<SmplxParams> shared;  // --pose-from: the first variant's poses
+  std::vector<float> texels;        // --coverage-oracle texel: the mesh row's coverage
   for (size_t i : chosen) {
     const EvalVariant& v = rows[i];
     r.variants.push_back(evaluate_variant(v, frames, opt));
@@ -176,6 +188,10 @@ EvalReport run_eval(const EvalRunOptions& o) {
     if (!o.pose_from.empty() && !opt.poses) {
       shared = r.variants.back().poses;
       opt.poses = &shared;
+    }
+    if (!r.variants.back().texel_coverage.empty()) {  // the mesh row of --coverage-oracle texel
+      texels = r.variants.back().texel_coverage;
+      opt.texel_coverage = &texels;
     }
     if (o.print_table) {
       const VariantEval& e = r.variants.back();

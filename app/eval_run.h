@@ -31,7 +31,9 @@ struct EvalRunOptions {
   // missing) and every other one at the poses its test-time optimisation found. Empty: each
   // variant fits its own poses.
   std::string pose_from;
-  bool coverage_oracle = false;      // EvalOptions::coverage_oracle (a diagnostic)
+  // EvalOptions::coverage_oracle (a diagnostic): "pixel" or "texel" ("texel" adds the mesh row,
+  // scored before the merges); empty: none.
+  std::string coverage_oracle;
   int antialias = -1;                // antialiased mesh silhouette (EvalOptions::antialias): 1 on
                                      // (--antialias), 0 off (--no-antialias), -1 the run's eval.antialias
 };

@@ -38,9 +38,10 @@ HAHA_COMMAND(eval) {
                   "score this variant first (mesh, full, naive or haha) and every other one at the poses its "
                   "test-time optimisation found, so that the rows differ only in the avatar (default: each "
                   "variant fits its own)");
-  sub->add_flag("--coverage-oracle", r.coverage_oracle,
-                "diagnostic: the mesh's coverage multiplied by the frame's true matte (no depth test outside "
-                "it), the ceiling of any learned mesh coverage");
+  sub->add_option("--coverage-oracle", r.coverage_oracle,
+                  "diagnostic of a learned mesh coverage: pixel (the mesh cut to each frame's true matte, no depth "
+                  "test outside it: the ceiling of any coverage) or texel (a 0/1 coverage per texel from where the "
+                  "mesh-only row's texels fell outside the matte: the ceiling of a texture alpha)");
   sub->add_option("--frames", r.frames, "evaluate only the first N frames of the split (0 = all)");
   sub->add_option("--resolution", r.resolution,
                   "score at this longer image side in px, any size (default: the size the run trained at)");

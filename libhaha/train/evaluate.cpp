@@ -125,8 +125,8 @@ SmplxParams optimise_test_pose(const TrainFrame& f, SmplxParams p, const Lbs<flo
 }
 
 // EvalOptions::coverage_oracle: the mesh layer of `req` (rendered into `buf` already) with its
-// coverage times the true matte and no depth test where the matte is under one half, then the
-// merge again with that layer.
+// coverage times `matte` (the true matte, or a per-pixel 0/1 coverage) and no depth test where
+// that is under one half, then the merge again with that layer.
 void render_with_oracle_coverage(const AvatarRenderRequest& req, const std::vector<float>& matte,
                                  AvatarRenderBuffers& buf) {
   const size_t P = matte.size();
@@ -145,6 +145,37 @@ void render_with_oracle_coverage(const AvatarRenderRequest& req, const std::vect
   buf.image = again.image;
   buf.color_front = again.color_front;
   buf.alpha = again.alpha;
+}
+
+// The texel a covered pixel of the mesh render samples (nearest; row 0 = v = 1).
+size_t pixel_texel(const AvatarRenderBuffers& buf, int q, const Texture& tex) {
+  const float u = buf.mesh_render.uv[2 * size_t(q)], v = buf.mesh_render.uv[2 * size_t(q) + 1];
+  const int x = std::clamp(int(u * float(tex.width)), 0, tex.width - 1);
+  const int y = std::clamp(int((1 - v) * float(tex.height)), 0, tex.height - 1);
+  return size_t(y) * size_t(tex.width) + size_t(x);
+}
+
+// CoverageOracle::texel, mesh-only pass: each covered pixel adds its matte to its texel.
+void count_texel_matte(const AvatarRenderBuffers& buf, const std::vector<float>& matte, const Texture& tex,
+                       std::vector<double>& in, std::vector<double>& all) {
+  if (all.empty()) in.assign(size_t(tex.width) * tex.height, 0.0), all.assign(size_t(tex.width) * tex.height, 0.0);
+  const std::vector<int32_t>& tri = buf.mesh_render.raster.tri;
+  for (size_t q = 0; q < tri.size(); ++q)
+    if (tri[q] >= 0) {
+      const size_t t = pixel_texel(buf, int(q), tex);
+      all[t] += 1;
+      in[t] += matte[q];
+    }
+}
+
+// CoverageOracle::texel, merges: the per-texel 0/1 coverage at each covered pixel (1 elsewhere:
+// the antialiased rim outside the raster keeps its coverage).
+std::vector<float> pixel_coverage(const AvatarRenderBuffers& buf, const std::vector<float>& texel, const Texture& tex) {
+  const std::vector<int32_t>& tri = buf.mesh_render.raster.tri;
+  std::vector<float> c(tri.size(), 1.0f);
+  for (size_t q = 0; q < tri.size(); ++q)
+    if (tri[q] >= 0) c[q] = texel[pixel_texel(buf, int(q), tex)];
+  return c;
 }
 
 }  // namespace
@@ -166,6 +197,11 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   if (opt.poses && opt.poses->size() != frames.size())
     fail("evaluate", v.name + ": " + std::to_string(opt.poses->size()) + " fixed poses for " +
                          std::to_string(frames.size()) + " frames");
+
+  if (opt.coverage_oracle == EvalOptions::CoverageOracle::texel && opt.texel_coverage && v.mesh && v.gaussians &&
+      opt.texel_coverage->size() != size_t(a.texture.width) * a.texture.height)
+    fail("evaluate", v.name + ": the texel coverage does not match the texture");
+  std::vector<double> texel_in, texel_all;  // texel mode, mesh only: matte over the pixels each texel drew
 
   Lbs<float> lbs(body);
   const AvatarViews views(a);
@@ -218,7 +254,15 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     lbs.forward(p, verts.data(), nullptr, nullptr);
     render_avatar(req, buf);
     fe.render_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (opt.coverage_oracle && v.mesh) render_with_oracle_coverage(req, f.mask, buf);
+    if (opt.coverage_oracle == EvalOptions::CoverageOracle::pixel && v.mesh) {
+      render_with_oracle_coverage(req, f.mask, buf);
+    } else if (opt.coverage_oracle == EvalOptions::CoverageOracle::texel && v.mesh) {
+      if (!v.gaussians) {
+        count_texel_matte(buf, f.mask, a.texture, texel_in, texel_all);
+      } else if (opt.texel_coverage) {
+        render_with_oracle_coverage(req, pixel_coverage(buf, *opt.texel_coverage, a.texture), buf);
+      }
+    }
     fe.psnr = psnr(buf.image.data(), gt.data(), H, W);
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
     const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);
@@ -241,6 +285,11 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
             fe.mesh_layer[3 * size_t(q) + c] = buf.mesh.mask[q] * buf.mesh.color[3 * size_t(q) + c];
     }
     out.frames.push_back(std::move(fe));
+  }
+  if (!texel_all.empty()) {
+    out.texel_coverage.assign(texel_all.size(), 1.0f);  // never drawn: kept
+    for (size_t t = 0; t < texel_all.size(); ++t)
+      if (texel_all[t] > 0 && texel_in[t] < 0.5 * texel_all[t]) out.texel_coverage[t] = 0.0f;
   }
   const double n = double(out.frames.size());
   out.psnr = out.ssim = out.render_ms = 0;

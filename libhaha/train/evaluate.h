@@ -55,10 +55,17 @@ struct EvalOptions {
   // Fixed poses, one per frame (another variant's VariantEval::poses): no test-time pose
   // optimisation, every variant scored at the same pose. Null: each variant fits its own.
   const std::vector<SmplxParams>* poses = nullptr;
-  // Diagnostic: the mesh layer's coverage multiplied by the frame's true matte, and its depth
-  // test only where the matte is at least half: the merge as it would be if the mesh knew
-  // the person's outline, the ceiling of any learned mesh coverage.
-  bool coverage_oracle = false;
+  // Diagnostics of a learned mesh coverage (the mesh may fade where it overshoots the person):
+  //   pixel: the mesh layer's coverage multiplied by each frame's true matte, its depth test
+  //          only where the matte is at least half: the mesh knows the outline in every frame,
+  //          the ceiling of any coverage;
+  //   texel: a 0/1 coverage per texel, 0 where the pixels a texel drew in the mesh-only
+  //          variant were mostly outside the matte (VariantEval::texel_coverage, passed here
+  //          as `texel_coverage` for the merges): the ceiling of a coverage the texture can
+  //          carry (a glTF MASK alpha), fitted to the scored frames themselves.
+  enum class CoverageOracle { none, pixel, texel };
+  CoverageOracle coverage_oracle = CoverageOracle::none;
+  const std::vector<float>* texel_coverage = nullptr;  // (Ht * Wt) 0/1; texel mode's merges
 };
 
 // Pixels within this distance of the ground-truth mask's outline make the outline PSNR.
@@ -89,6 +96,7 @@ struct VariantEval {
   double transmittance_part = 0;  // the same frames' mean transmittance over the part
   std::vector<FrameEval> frames;
   std::vector<SmplxParams> poses;  // the pose each frame was scored at (after its optimisation)
+  std::vector<float> texel_coverage;  // CoverageOracle::texel, mesh-only variant: (Ht * Wt) 0/1
 };
 
 // Bytes to store the variant: 56 per Gaussian (14 float32 values, as the paper counts)

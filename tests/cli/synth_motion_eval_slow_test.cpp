@@ -90,17 +90,21 @@ TEST(SynthMotionEvalSlow, ARunTrainedOnTheTurnIsScoredOnAWalkAndItsSkirt) {
   // Every row at the poses the full Gaussians found: they are scored first, added when not
   // asked for, and the report says so.
   ASSERT_EQ(run("eval --run '" + d + "/run' --data '" + d + "/walk' --variants naive --pose-from full --tto-steps 3 "
-                "--coverage-oracle --out '" + d + "/shared'",
+                "--coverage-oracle texel --out '" + d + "/shared'",
                 log),
             0)
       << slurp(log);
   const auto shared = nlohmann::json::parse(slurp(dir / "shared" / "report.json"));
-  ASSERT_EQ(shared["variants"].size(), 2u);
+  ASSERT_EQ(shared["variants"].size(), 3u);  // texel: the mesh row measures the coverage first
   EXPECT_EQ(shared["variants"][0]["name"], "full Gaussians");
-  EXPECT_EQ(shared["variants"][1]["name"], "naive merge");
-  EXPECT_EQ(shared["variants"][1]["frames"][0]["tto_loss_start"].get<double>(), 0.0);  // no fit of its own
+  EXPECT_EQ(shared["variants"][1]["name"], "mesh only");
+  EXPECT_EQ(shared["variants"][2]["name"], "naive merge");
+  EXPECT_EQ(shared["variants"][2]["frames"][0]["tto_loss_start"].get<double>(), 0.0);  // no fit of its own
   EXPECT_NE(shared.dump().find("eval poses from full"), std::string::npos);
-  EXPECT_NE(shared.dump().find("eval mesh coverage oracle"), std::string::npos);
+  EXPECT_NE(shared.dump().find("eval mesh coverage oracle texel"), std::string::npos);
+  EXPECT_EQ(run("eval --run '" + d + "/run' --coverage-oracle texel --pose-from haha --out '" + d + "/bad'", log), 1);
+  EXPECT_NE(slurp(log).find("--coverage-oracle: texel scores the mesh row before the merges"), std::string::npos)
+      << slurp(log);
   EXPECT_EQ(run("eval --run '" + d + "/run' --pose-from all --out '" + d + "/bad'", log), 1);
   EXPECT_NE(slurp(log).find("--pose-from: unknown variant 'all'"), std::string::npos) << slurp(log);
   fs::remove_all(dir);

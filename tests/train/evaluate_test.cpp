@@ -154,7 +154,7 @@ TEST(Evaluate, CoverageOracleCutsTheMeshToTheTrueMatte) {
   o.premultiplied = true;
   o.keep_images = 1;
   const VariantEval plain = evaluate_variant({"haha", &a, true, true}, f, o);
-  o.coverage_oracle = true;
+  o.coverage_oracle = EvalOptions::CoverageOracle::pixel;
   // The matte is the avatar's own silhouette: nothing to cut, the same image.
   const VariantEval same = evaluate_variant({"haha", &a, true, true}, f, o);
   EXPECT_EQ(same.frames[0].image, plain.frames[0].image);
@@ -176,6 +176,42 @@ TEST(Evaluate, CoverageOracleCutsTheMeshToTheTrueMatte) {
   EXPECT_EQ(right_mesh, 0.0);  // black background where the matte is 0
   EXPECT_GT(left_mesh, 1.0);
   EXPECT_GT(right_both, 0.1);  // the hair Gaussians on that side are no longer hidden
+}
+
+TEST(Evaluate, TexelCoverageOracleFadesTexelsThatFellOutsideTheMatte) {
+  const Avatar a = scene_truth();
+  std::vector<TrainFrame> f = scene_frames(a, 2);
+  EvalOptions o;
+  o.tto_steps = 0;
+  o.premultiplied = true;
+  o.keep_images = 1;
+  o.coverage_oracle = EvalOptions::CoverageOracle::texel;
+  // The true matte: every texel drawn inside it, none faded, the merge as without the oracle.
+  const VariantEval mesh = evaluate_variant({"mesh", &a, true, false}, f, o);
+  ASSERT_EQ(mesh.texel_coverage.size(), size_t(a.texture.width) * a.texture.height);
+  for (float c : mesh.texel_coverage) ASSERT_EQ(c, 1.0f);
+  o.texel_coverage = &mesh.texel_coverage;
+  EvalOptions none = o;
+  none.coverage_oracle = EvalOptions::CoverageOracle::none;
+  EXPECT_EQ(evaluate_variant({"haha", &a, true, true}, f, o).frames[0].image,
+            evaluate_variant({"haha", &a, true, true}, f, none).frames[0].image);
+  // A matte without the right half: the texels drawn only there fade (0), the others stay;
+  // the merge then shows less of the mesh on that side.
+  const int W = f[0].camera.width, H = f[0].camera.height;
+  for (TrainFrame& x : f)
+    for (int y = 0; y < H; ++y)
+      for (int c = W / 2; c < W; ++c) x.mask[size_t(y * W + c)] = 0;
+  const VariantEval cut = evaluate_variant({"mesh", &a, true, false}, f, o);
+  size_t faded = 0;
+  for (float c : cut.texel_coverage) faded += c == 0.0f;
+  EXPECT_GT(faded, 0u);
+  EXPECT_LT(faded, cut.texel_coverage.size() / 2);
+  o.texel_coverage = &cut.texel_coverage;
+  const VariantEval merged = evaluate_variant({"haha", &a, true, true}, f, o);
+  EXPECT_NE(merged.frames[0].image, evaluate_variant({"haha", &a, true, true}, f, none).frames[0].image);
+  const std::vector<float> wrong(3, 1.0f);
+  o.texel_coverage = &wrong;
+  EXPECT_THROW(evaluate_variant({"haha", &a, true, true}, f, o), Error);
 }
 
 TEST(Evaluate, StorageCountsGaussiansAndTexture) {
