@@ -60,6 +60,31 @@ std::vector<std::pair<size_t, size_t>> contact_runs(const std::vector<V3>& x, do
   return runs;
 }
 
+// Distance from p to the polyline through pts.
+double distance_to_polyline(const V3& p, const std::vector<V3>& pts) {
+  double best = INFINITY;
+  for (size_t i = 0; i + 1 < pts.size(); ++i) {
+    const V3 a = pts[i], d = pts[i + 1] - a;
+    const double len2 = dot(d, d);
+    const double t = len2 > 0 ? std::clamp(dot(p - a, d) / len2, 0.0, 1.0) : 0.0;
+    best = std::min(best, norm(p - (a + t * d)));
+  }
+  return best;
+}
+
+// Whether an elbow or wrist of `pos` (joint -> metres, NaN-free for bound joints) is within
+// kTorsoRadius of the pelvis-spine-neck line; `has` says which joints are there.
+template <class Pos, class Has>
+bool arm_in_torso(const Pos& pos, const Has& has) {
+  std::vector<V3> line;
+  for (int j : {0, 3, 6, 9, 12})
+    if (has(j)) line.push_back(pos(j));
+  if (line.size() < 2) return false;
+  for (int j : {18, 19, 20, 21})
+    if (has(j) && distance_to_polyline(pos(j), line) < RetargetCheck::kTorsoRadius) return true;
+  return false;
+}
+
 double slide(const std::vector<V3>& x, size_t a, size_t b) {
   double d = 0;
   for (size_t t = a; t < b; ++t) d = std::max(d, std::hypot(x[t].x - x[a].x, x[t].z - x[a].z));
@@ -87,6 +112,12 @@ RetargetCheck check_retarget(const RigAnimation& rig, const BoneMatch& match, co
         sum[size_t(l)] += angle_deg(rep.alignment * ds, dt);
         ++n[size_t(l)];
       }
+    const bool body_in = arm_in_torso([&](int j) { return J[size_t(j)]; }, [&](int j) { return match.node_of[size_t(j)] >= 0; });
+    const bool rig_in = arm_in_torso([&](int j) { return rep.scale * (rep.alignment * rig_pos(j)); },
+                                     [&](int j) { return match.node_of[size_t(j)] >= 0; });
+    ++c.frames;
+    c.arm_in_torso_frames += body_in && !rig_in;
+    c.rig_arm_in_torso_frames += rig_in;
     for (int f = 0; f < 2; ++f) {
       const int a = 7 + f;
       if (match.node_of[size_t(a)] < 0) continue;
@@ -113,8 +144,11 @@ std::string retarget_check_line(const RetargetCheck& c) {
     std::snprintf(b, sizeof b, " %s %.2f deg,", RetargetCheck::kLimbNames[l], c.limb_deg[size_t(l)]);
     s += b;
   }
-  std::snprintf(b, sizeof b, " ankles slide %.2f cm in the rig's %d contacts (the rig's own %.2f cm)", c.slide_cm, c.contacts,
+  std::snprintf(b, sizeof b, " ankles slide %.2f cm in the rig's %d contacts (the rig's own %.2f cm),", c.slide_cm, c.contacts,
                 c.rig_slide_cm);
+  s += b;
+  std::snprintf(b, sizeof b, " an arm inside the torso in %d of %d frames where the rig's is not (the rig's in %d)",
+                c.arm_in_torso_frames, c.frames, c.rig_arm_in_torso_frames);
   return s + b;
 }
 

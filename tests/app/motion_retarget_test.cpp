@@ -7,6 +7,7 @@
 
 #include "app/bone_map.h"
 #include "app/motion_retarget.h"
+#include "app/motion_retarget_check.h"
 #include "app/rig_import.h"
 #include "body/joint_names.h"
 #include "core/atomic_file.h"
@@ -211,6 +212,36 @@ TEST(MotionRetarget, MixamoGlbWithRotatedBoneAxesInAPose) {
   const std::string path = temp_file("mixamo.glb").string();
   test::write_rig_glb(rig, path);
   expect_limbs_match(m, retarget_file(path, "mixamo", 22), 1.0);
+}
+
+// The check counts the frames where the body's arm is inside its torso and the rig's is not:
+// none for a faithful retarget; every frame once the body's left arm is swung down through
+// its chest.
+TEST(MotionRetarget, CheckCountsAnArmThroughTheTorsoTheRigDoesNotHave) {
+  const RestSkeleton rest = rest_skeleton(test::low_body());
+  const Motion m = demo("walk", 12);
+  const test::Rig rig = test::make_rig(m, rest, mixamo_specs(), 0, 0, 100);
+  const std::string path = temp_file("check.bvh").string();
+  write_text_file(path, test::rig_bvh(rig));
+  const RigAnimation r = read_rig_animation(path);
+  const BoneMatch match = choose_bone_map(builtin_bone_maps(), r.names);
+  RetargetReport rep;
+  Motion back = retarget_rig(r, match, test::low_body(), RetargetOptions{false, {}}, &rep);
+  const RetargetCheck ok = check_retarget(r, match, back, rest, rep, {});
+  EXPECT_EQ(ok.frames, 12);
+  EXPECT_EQ(ok.arm_in_torso_frames, 0);
+  EXPECT_EQ(ok.rig_arm_in_torso_frames, 0);
+  // The left shoulder turned 130 degrees about the forward axis: the arm points down and in,
+  // the elbow and wrist through the chest.
+  for (SmplxParams& p : back.frames) {
+    p.pose[3 * 16 + 0] = p.pose[3 * 16 + 1] = 0.0f;
+    p.pose[3 * 16 + 2] = float(-130 * M_PI / 180);
+    p.pose[3 * 18 + 0] = p.pose[3 * 18 + 1] = p.pose[3 * 18 + 2] = 0.0f;
+  }
+  const RetargetCheck bad = check_retarget(r, match, back, rest, rep, {});
+  EXPECT_EQ(bad.arm_in_torso_frames, 12);
+  EXPECT_NE(retarget_check_line(bad).find("an arm inside the torso in 12 of 12 frames"), std::string::npos)
+      << retarget_check_line(bad);
 }
 
 TEST(MotionRetarget, RotationBetweenTakesOneDirectionToTheOther) {
