@@ -476,17 +476,23 @@ std::vector<std::string> estimated_fit_settings(const std::string& preset) {
   // The poses are first fitted photometrically against a textured mesh, at up to 512 px
   // (train/photo_fit.h; the synthetic room video at 512 px: +0.9 dB; docs/fit-video.md),
   // then the clothed surface (train/surface_fit.h; taiji at 512 px: the mesh +1.8 dB, HAHA
-  // as good with 38% fewer Gaussians; docs/results.md "The clothed surface").
+  // as good with 38% fewer Gaussians; docs/results.md "The clothed surface"), kept inside the
+  // person's outline (the mask term 4x where it covers background, 1.5 cm inward allowed): an
+  // estimated surface overshooting the outline is what the merge loses, and with it inside
+  // the naive merge gained 0.10-1.22 dB and HAHA 0.08-1.12 dB on four real clips, the mesh
+  // alone 0.33-0.72 dB less on three (docs/results.md "What the merge costs on real footage").
   TrainConfig t = p;
   t.s0.photo.steps = 6000;
   t.s0.surface.steps = 2000;
+  t.s0.surface.max_in = 0.015;
+  t.s0.surface.outside = 4;
   t.s1.lr_pose = 10 * p.s1.lr_pose;
   t.s3.depth_margin = 0.01;
   t.s3.w.opacity = 2 * p.s3.w.opacity;
   std::vector<std::string> out;
   for (const auto& [k, v] : config_to_pairs(t))
-    if (k == "s0.photo.steps" || k == "s0.surface.steps" || k == "s1.lr.pose" || k == "s3.depth_margin" ||
-        k == "s3.w.opacity")
+    if (k == "s0.photo.steps" || k == "s0.surface.steps" || k == "s0.surface.max_in" || k == "s0.surface.w.outside" ||
+        k == "s1.lr.pose" || k == "s3.depth_margin" || k == "s3.w.opacity")
       out.push_back(k + "=" + v);
   out.push_back("eval.tto_steps=100");
   out.push_back("eval.antialias=true");
