@@ -217,6 +217,19 @@ inline void write_rig_glb(const Rig& r, const std::string& path, const std::stri
   const int input = add_accessor(times, TINYGLTF_TYPE_SCALAR, int(T));
   tinygltf::Animation anim;
   anim.name = take;
+  // One LINEAR channel of `path` on `node`, its keys `values` (T of them).
+  const auto add_channel = [&](const std::vector<float>& values, int type, int node, const char* path) {
+    tinygltf::AnimationSampler sampler;
+    sampler.input = input;
+    sampler.output = add_accessor(values, type, int(T));
+    sampler.interpolation = "LINEAR";
+    anim.samplers.push_back(sampler);
+    tinygltf::AnimationChannel ch;
+    ch.sampler = int(anim.samplers.size() - 1);
+    ch.target_node = node;
+    ch.target_path = path;
+    anim.channels.push_back(ch);
+  };
   for (size_t b = 0; b < r.bones.size(); ++b) {
     tinygltf::Node node;
     node.name = r.bones[b].name;
@@ -232,29 +245,11 @@ inline void write_rig_glb(const Rig& r, const std::string& path, const std::stri
       const Quat<double> k = mat_to_quat(rig_local(r, b, t));
       rot.insert(rot.end(), {float(k.x), float(k.y), float(k.z), float(k.w)});
     }
-    tinygltf::AnimationSampler sampler;
-    sampler.input = input;
-    sampler.output = add_accessor(rot, TINYGLTF_TYPE_VEC4, int(T));
-    sampler.interpolation = "LINEAR";
-    anim.samplers.push_back(sampler);
-    tinygltf::AnimationChannel ch;
-    ch.sampler = int(anim.samplers.size() - 1);
-    ch.target_node = int(b);
-    ch.target_path = "rotation";
-    anim.channels.push_back(ch);
+    add_channel(rot, TINYGLTF_TYPE_VEC4, int(b), "rotation");
   }
   std::vector<float> root;
   for (const V3& p : r.root) root.insert(root.end(), {float(r.units * p.x), float(r.units * p.y), float(r.units * p.z)});
-  tinygltf::AnimationSampler sampler;
-  sampler.input = input;
-  sampler.output = add_accessor(root, TINYGLTF_TYPE_VEC3, int(T));
-  sampler.interpolation = "LINEAR";
-  anim.samplers.push_back(sampler);
-  tinygltf::AnimationChannel ch;
-  ch.sampler = int(anim.samplers.size() - 1);
-  ch.target_node = 0;
-  ch.target_path = "translation";
-  anim.channels.push_back(ch);
+  add_channel(root, TINYGLTF_TYPE_VEC3, 0, "translation");
   model.animations.push_back(anim);
   tinygltf::Buffer buffer;
   buffer.data.resize(data.size() * 4);
