@@ -65,6 +65,7 @@ void save_avatar_npz(const Avatar& a, const std::string& path) {
   z.set("gaussian_opacity", NpyArray::from(g.opacity, {n}));
   const std::vector<float>& d = a.body.rest_offsets;
   if (!d.empty()) z.set("rest_offsets", NpyArray::from(d, {int64_t(d.size() / 3), 3}));
+  if (!a.mesh_coverage.empty()) z.set("mesh_coverage", NpyArray::from(a.mesh_coverage, {int64_t(a.mesh_coverage.size())}));
   const Garment gm = a.body.has_garment() ? garment_of(a.body) : a.garment;
   if (!gm.empty()) put_garment(z, gm);
   z.write(path);
@@ -101,6 +102,7 @@ Avatar load_avatar_npz(const std::string& path) {
       if (!std::isfinite(x)) fail(path, "rest_offsets: non-finite value");
   }
   if (z.has("garment_vertices")) a.garment = get_garment(z, path);
+  if (z.has("mesh_coverage")) a.mesh_coverage = z.get("mesh_coverage", {-1}).as_float();
   validate_subject(a, path);
   validate_gaussians(g, -1, path);
   return a;
@@ -117,6 +119,9 @@ void attach_body(Avatar& a, BodyModel body, const std::string& path) {
   std::vector<float> d = std::move(a.body.rest_offsets);
   if (!d.empty() && d.size() != size_t(body.num_verts) * 3)
     fail(path, "rest_offsets: " + std::to_string(d.size() / 3) + " vertices, the body model has " +
+                   std::to_string(body.num_verts));
+  if (!a.mesh_coverage.empty() && a.mesh_coverage.size() != size_t(body.num_verts))
+    fail(path, "mesh_coverage: " + std::to_string(a.mesh_coverage.size()) + " vertices, the body model has " +
                    std::to_string(body.num_verts));
   a.body = std::move(body);
   a.body.rest_offsets = std::move(d);

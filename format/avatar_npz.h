@@ -16,6 +16,8 @@
 //   gaussian_color      (N, 3)               RGB in [0, 1]
 //   gaussian_opacity    (N)                  [0, 1]
 //   rest_offsets        (V, 3)               the body's rest displacement (optional; none)
+//   mesh_coverage       (V)                  [0, 1] per body vertex, garment included
+//                                            (optional; absent: the whole mesh draws)
 #pragma once
 
 #include <string>

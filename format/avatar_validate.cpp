@@ -117,6 +117,8 @@ void validate_subject(const Avatar& a, const std::string& where) {
   if (!(std::isfinite(a.depth_margin) && std::abs(a.depth_margin) <= kMaxDepthMargin)) {
     fail(where, "depth_margin: must be a finite number of metres in [-1, 1]");
   }
+  for (float c : a.mesh_coverage)
+    if (!(c >= 0.0f && c <= 1.0f)) fail(where, "mesh_coverage: values must be in [0, 1]");
 }
 
 bool has_shape_blend(const BodyModel& b) {
@@ -129,6 +131,9 @@ bool has_shape_blend(const BodyModel& b) {
 void validate_avatar(const Avatar& a, const std::string& where) {
   validate_body(a.body, where);
   validate_subject(a, where);
+  if (!a.mesh_coverage.empty() && a.mesh_coverage.size() != size_t(a.body.num_verts))
+    fail(where, "mesh_coverage: " + std::to_string(a.mesh_coverage.size()) + " values for " +
+                    std::to_string(a.body.num_verts) + " body vertices");
   validate_gaussians(a.gaussians, a.body.num_faces, where);
 }
 

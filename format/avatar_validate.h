@@ -17,7 +17,8 @@ void validate_body(const BodyModel& b, const std::string& where);
 // finite values, scale > 0, opacity in [0, 1], rotation not (near) zero.
 void validate_gaussians(const BoundGaussians& g, int num_faces, const std::string& where);
 
-// Texture size and finite values; betas, expression finite; face_scale_divisor > 0.
+// Texture size and finite values; betas, expression finite; face_scale_divisor > 0;
+// mesh_coverage in [0, 1] (its size is checked against the body by validate_avatar).
 void validate_subject(const Avatar& a, const std::string& where);
 
 // Whether the body still has shape/expression blend shapes to apply (some non-zero

@@ -46,7 +46,17 @@ struct Avatar {
   // Depth test of the merge: a Gaussian shows in front of the mesh where its centre's
   // camera z <= D + depth_margin (metres; the trainer's s3.depth_margin, 0 = exact).
   float depth_margin = 0.0f;
+  // The mesh's learned coverage (train/mesh_coverage.h): one value in [0, 1] per body vertex
+  // (garment included); the mesh draws a point only where the barycentric interpolation of
+  // its face's three values is >= kCoverageCutoff, so where an estimated surface overshoots
+  // the person the mesh is cut away and what is behind it shows (the glTF file writes it as
+  // COLOR_0 alpha with alphaMode MASK). Empty: the whole mesh draws.
+  std::vector<float> mesh_coverage;
 };
+
+// The cut of mesh_coverage: a mesh point draws where its interpolated coverage >= this (the
+// glTF material's alphaCutoff).
+inline constexpr float kCoverageCutoff = 0.5f;
 
 // The largest |depth_margin| an avatar may carry (metres): the format's range, which the
 // trainer's config checks before training rather than after.
