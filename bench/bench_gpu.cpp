@@ -23,7 +23,7 @@ double gpu_render_ms(const Avatar& a, const Camera& cam, const SmplxParams& p, i
   const BoundGaussians& g = a.gaussians;
   const cuda::DeviceBuffer<int32_t> face(g.face);
   const cuda::DeviceBuffer<float> off(g.offset), rot(g.rotation), sc(g.scale), col(g.color), op(g.opacity),
-      tex(a.texture.rgb);
+      tex(a.texture.rgb), cov(a.mesh_coverage);
   const GaussianSetView gv{g.size(), face.data(), off.data(), rot.data(), sc.data(), col.data(), op.data()};
   const TextureView tv{a.texture.width, a.texture.height, 3, tex.data()};
   AvatarRenderRequest req;
@@ -33,6 +33,7 @@ double gpu_render_ms(const Avatar& a, const Camera& cam, const SmplxParams& p, i
   req.face_scale_divisor = a.face_scale_divisor;
   req.gaussians = g.size() > 0 ? &gv : nullptr;
   req.texture = &tv;
+  req.mesh_coverage = a.mesh_coverage.empty() ? nullptr : cov.data();
   req.depth_margin = a.depth_margin;
   cuda::AvatarRenderCudaBuffers buf;
   const SmplxView<float> v{p.pose.data(), p.betas.data(), int(p.betas.size()), p.expression.data(),

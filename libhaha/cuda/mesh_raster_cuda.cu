@@ -28,13 +28,15 @@ __global__ void to_camera_kernel(Camera cam, const float* verts, int V, float* c
   cam.to_camera(Vec3f::load(verts + 3 * i)).store(cv + 3 * i);
 }
 
-__global__ void setup_kernel(Camera cam, const float* cv, const int32_t* faces, int F, TriSetup* setups) {
+__global__ void setup_kernel(Camera cam, const float* cv, const int32_t* faces, const float* coverage, int F,
+                             TriSetup* setups) {
   const int64_t f = detail::global_index();
   if (f >= F) return;
   const int32_t* idx = faces + 3 * f;
   const Vec3f v[3] = {Vec3f::load(cv + 3 * idx[0]), Vec3f::load(cv + 3 * idx[1]), Vec3f::load(cv + 3 * idx[2])};
   TriSetup s;
   setup_triangle(cam, v, &s);
+  setup_coverage_cut(coverage, idx, &s);
   setups[f] = s;
 }
 
@@ -187,7 +189,7 @@ void rasterize_mesh_cuda(const Camera& cam, const MeshView& mesh, MeshRasterCuda
   HAHA_LAUNCH(to_camera_kernel, mesh.num_verts, detail::kThreads, 0, cam, mesh.verts, mesh.num_verts,
               out.cam_verts.data());
   HAHA_LAUNCH(setup_kernel, mesh.num_faces, detail::kThreads, 0, cam, out.cam_verts.data(), mesh.faces,
-              mesh.num_faces, out.setup.data());
+              mesh.coverage, mesh.num_faces, out.setup.data());
   HAHA_LAUNCH(raster_kernel, int64_t(mesh.num_faces) * 32, detail::kThreads, 0, cam, out.setup.data(),
               mesh.num_faces, out.zbuf.data());
   HAHA_LAUNCH(resolve_kernel, P, detail::kThreads, 0, cam, out.setup.data(), out.zbuf.data(), out.tri.data(),
@@ -228,7 +230,7 @@ void sample_texture_backward_cuda(const TextureView& tex, int num_pixels, const 
 void render_mesh_cuda(const Camera& cam, const MeshRenderInput& in, MeshRenderCuda& out) {
   const char* fn = "render_mesh_cuda";
   if (in.num_faces > 0 && (!in.uv_faces || !in.uv)) fail(fn, "null UV buffer");
-  rasterize_mesh_cuda(cam, MeshView{in.verts, in.num_verts, in.faces, in.num_faces}, out.raster);
+  rasterize_mesh_cuda(cam, MeshView{in.verts, in.num_verts, in.faces, in.num_faces, in.coverage}, out.raster);
   const int P = out.raster.num_pixels();
   const int C = in.texture.channels;
   out.uv.resize(size_t(P) * 2);

@@ -89,6 +89,7 @@ AvatarRenderRequest avatar_request(const Avatar& a, const AvatarViews& views, co
   req.face_scale_divisor = a.face_scale_divisor;
   req.gaussians = gaussians ? &views.gaussians : nullptr;
   req.texture = mesh ? &views.texture : nullptr;
+  req.mesh_coverage = a.mesh_coverage.empty() ? nullptr : a.mesh_coverage.data();
   req.depth_margin = a.depth_margin;
   return req;
 }

@@ -66,6 +66,7 @@ struct AvatarRenderRequest {
   // neither: no mesh.
   const MeshLayerView* mesh_layer = nullptr;
   const TextureView* texture = nullptr;
+  const float* mesh_coverage = nullptr;  // (V) the mesh's coverage cut (Avatar::mesh_coverage); null: none
   float depth_margin = 0.0f;        // Gaussians in front where centre z <= D + margin
   float background[3] = {0, 0, 0};
   // Antialias the silhouette of the mesh rendered from `texture` (render/mesh_antialias.h):

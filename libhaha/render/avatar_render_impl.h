@@ -68,6 +68,7 @@ inline MeshRenderInput mesh_input(const AvatarRenderRequest& req) {
   in.num_uv = b.num_uv;
   in.uv_faces = b.uv_faces;
   in.texture = *req.texture;
+  in.coverage = req.mesh_coverage;
   return in;
 }
 

@@ -60,6 +60,7 @@ void rasterize_mesh(const Camera& cam, const MeshView& mesh, MeshRaster& out) {
     const int32_t* idx = mesh.faces + 3 * f;
     const Vec3f v[3] = {Vec3f::load(cv + 3 * idx[0]), Vec3f::load(cv + 3 * idx[1]), Vec3f::load(cv + 3 * idx[2])};
     setup_triangle(cam, v, &setups[f]);
+    setup_coverage_cut(mesh.coverage, idx, &setups[f]);
   });
 
   // Bin triangles into tiles in ascending triangle order (ties in depth then go to the

@@ -15,6 +15,12 @@
 // triangle at z = near would draw). Only the pixel bounding box is computed from the
 // triangle clipped at z = near.
 //
+// Coverage cut (optional, MeshView::coverage, Avatar::mesh_coverage): a point of a face draws
+// only where the barycentric interpolation of its corners' coverage c_i is >= kCoverageCutoff,
+// i.e. sum_i E_i (c_i - cutoff) >= 0 (sum_i E_i > 0 inside); what lies behind a cut point
+// shows, as a glTF viewer's alpha test (MASK) shows it. A face with every corner under the
+// cutoff is skipped at setup; one with none under it draws whole.
+//
 // Culling (documented, tested): no back-face culling (both sides draw; the z-buffer picks).
 // Skipped triangles: any non-finite vertex; zero area; edge-on (|det| <= 1e-6 |N| |v0|,
 // the plane passes within a relative 1e-6 of the camera centre); entirely behind the near
@@ -37,6 +43,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "body/avatar.h"
 #include "core/math.h"
 #include "core/camera.h"
 
@@ -50,6 +57,9 @@ struct MeshViewT {
   int num_verts = 0;
   const int32_t* faces = nullptr;
   int num_faces = 0;
+  // (V) per-vertex coverage in [0, 1] for the cut above; null: every face draws whole.
+  // Only rasterize_mesh reads it (visibility); the differentiable parts take tri as given.
+  const float* coverage = nullptr;
 };
 using MeshView = MeshViewT<float>;
 
@@ -120,17 +130,21 @@ struct TriSetup {
   Vec3f N;           // area normal * sign(det)
   float det;         // |det| > 0
   int x0, y0, x1, y1;
-  uint32_t top_left;  // bit i: edge i owns pixels with E_i == 0
-  uint32_t pad_;
+  uint32_t top_left;  // bit i: edge i owns pixels with E_i == 0; kCutBit: the coverage cut applies
+  float cut[3];       // c_i - kCoverageCutoff per corner (read when kCutBit is set)
 };
+constexpr uint32_t kCutBit = 1u << 3;
 
 // Coverage of the ray d (through a pixel centre) by a set-up triangle, with the fill rule
 // and the near/far test. On coverage writes the camera z.
 HAHA_HD bool tri_covers(const TriSetup& s, Vec3f d, float near_plane, float far_plane, float* z) {
+  float cut = 0.0f;
   for (int i = 0; i < 3; ++i) {
     const float E = s.n[i].x * d.x + s.n[i].y * d.y + s.n[i].z;
     if (E < 0.0f || (E == 0.0f && !((s.top_left >> i) & 1u))) return false;
+    cut += E * s.cut[i];
   }
+  if ((s.top_left & kCutBit) && cut < 0.0f) return false;
   const float den = s.N.x * d.x + s.N.y * d.y + s.N.z;
   if (!(den > 0.0f)) return false;
   const float zz = s.det / den;
@@ -158,7 +172,7 @@ HAHA_HD bool setup_triangle(const Camera& cam, const Vec3f v[3], TriSetup* s) {
   s->x0 = s->y0 = 0;
   s->x1 = s->y1 = -1;
   s->top_left = 0;
-  s->pad_ = 0;
+  s->cut[0] = s->cut[1] = s->cut[2] = 0.0f;
   for (int i = 0; i < 3; ++i)
     if (!std::isfinite(v[i].x) || !std::isfinite(v[i].y) || !std::isfinite(v[i].z)) return false;
   const float nr = cam.near_plane, fr = cam.far_plane;
@@ -205,6 +219,23 @@ HAHA_HD bool setup_triangle(const Camera& cam, const Vec3f v[3], TriSetup* s) {
   pixel_span(minx, maxx, cam.width, &s->x0, &s->x1);
   pixel_span(miny, maxy, cam.height, &s->y0, &s->y1);
   return s->x0 <= s->x1 && s->y0 <= s->y1;
+}
+
+// The coverage cut of a set-up face with corner vertices idx (coverage per vertex, null:
+// none): every corner under the cutoff empties its box; a mix sets kCutBit.
+HAHA_HD void setup_coverage_cut(const float* coverage, const int32_t idx[3], TriSetup* s) {
+  if (!coverage) return;
+  int under = 0;
+  for (int i = 0; i < 3; ++i) {
+    s->cut[i] = coverage[idx[i]] - kCoverageCutoff;
+    under += s->cut[i] < 0.0f;
+  }
+  if (under == 3) {
+    s->x0 = s->y0 = 0;
+    s->x1 = s->y1 = -1;
+  } else if (under > 0) {
+    s->top_left |= kCutBit;
+  }
 }
 
 // Camera-space corners of face f.

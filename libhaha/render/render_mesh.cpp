@@ -23,7 +23,7 @@ void check_uv(const MeshRenderInput& in, const char* fn) {
 
 void render_mesh(const Camera& cam, const MeshRenderInput& in, MeshRender& out) {
   check_uv(in, "render_mesh");
-  rasterize_mesh(cam, MeshView{in.verts, in.num_verts, in.faces, in.num_faces}, out.raster);
+  rasterize_mesh(cam, MeshView{in.verts, in.num_verts, in.faces, in.num_faces, in.coverage}, out.raster);
   const int P = out.raster.num_pixels();
   const int C = in.texture.channels;
   out.uv.resize(size_t(P) * 2);

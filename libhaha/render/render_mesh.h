@@ -26,6 +26,7 @@ struct MeshRenderInput {
   int num_uv = 0;
   const int32_t* uv_faces = nullptr;  // (F, 3) ft: UV index per face corner
   TextureView texture;              // (Ht, Wt, C), row 0 = v = 1
+  const float* coverage = nullptr;  // (V) the coverage cut (render/mesh_raster.h); null: none
 };
 
 // Forward results (pixel p = y * W + x) plus backward scratch; vectors are resized by

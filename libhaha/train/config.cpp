@@ -188,6 +188,8 @@ std::vector<ConfigEntry> config_entries(TrainConfig& c) {
   v.push_back({"s2.evidence.fill", K::Bool, &s2.fill,
                "after stage 2: fill texels below s2.evidence.full from their seen neighbours, dilate the gutter"});
   v.push_back({"s2.evidence.fill_iterations", K::Int, &s2.fill_iterations, "Gauss-Seidel sweeps of the fill"});
+  v.push_back({"s2.coverage", K::Bool, &s2.coverage,
+               "after stage 2: learn the mesh's coverage from the mattes and cut the mesh where it covers background"});
 
   Stage3Config& s3 = c.s3;
   v.push_back({"s3.steps", K::Int, &s3.steps, "stage 3 steps (opacity / colour filtering)"});

@@ -169,6 +169,10 @@ struct Stage2Config {
   double smooth = 10.0;
   bool fill = true;
   int fill_iterations = 300;
+  // After the stage: the mesh's coverage learned from the training mattes (train/mesh_coverage.h),
+  // the mesh cut where it covers background in most of the frames that saw it; stage 3 and
+  // every reader merge with the cut mesh.
+  bool coverage = false;
 };
 
 struct Stage3Config {

@@ -47,6 +47,7 @@ TrainCheckpoint Trainer::Impl::save() const {
     ck.f32["validation.transl"] = vtransl;
   }
   if (!texture.empty()) ck.f32["texture"] = texture;
+  if (!coverage.empty()) ck.f32["mesh_coverage"] = coverage;
   for (const auto& [key, v] : adam.state()) ck.f32[key] = v;
   if (stage == 1) {
     ck.f32["densify.grad_accum"] = grad_accum;
@@ -127,6 +128,13 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
     tex = getf("texture");
     if (tex.size() != size_t(ts) * ts * 3) fail(where, "texture: wrong size");
   }
+  std::vector<float> cov;
+  if (ck.f32.count("mesh_coverage")) {
+    cov = getf("mesh_coverage");
+    if (cov.size() != size_t(body.num_verts)) fail(where, "mesh_coverage: does not match the body's vertices");
+    for (float c : cov)
+      if (!(c >= 0.0f && c <= 1.0f)) fail(where, "mesh_coverage: values must be in [0, 1]");
+  }
   // Commit.
   stage = st;
   step = sp;
@@ -146,12 +154,17 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   }
   texture = std::move(tex);
   tex_size = ts;
+  coverage = std::move(cov);
   skipped = scalar("meta.skipped");
   nan_streak = scalar("meta.nan_streak");
   auto it = ck.f64.find("time.seconds");
   if (it != ck.f64.end() && it->second.size() == 3) seconds = {it->second[0], it->second[1], it->second[2]};
   if (stage <= 3) {
     begin_stage(stage);
+    if (stage == 3) {  // a run from before s2.coverage existed, resumed with it on
+      std::string note;
+      learn_coverage(note);
+    }
     adam.load_state(ck.f32, where);
     if (stage == 3 && validating()) {
       stop.load(ck.f64, where);
@@ -178,6 +191,7 @@ Avatar Trainer::Impl::make_avatar(const GaussianParams& x) const {
   a.depth_margin = float(cfg.s3.depth_margin);
   a.texture.width = a.texture.height = texture.empty() ? 0 : tex_size;
   a.texture.rgb = texture;
+  a.mesh_coverage = coverage;
   a.gaussians = to_bound(x, float(cfg.scale_max));
   return a;
 }

@@ -74,6 +74,7 @@ struct Trainer::Impl {
   std::vector<SmplxParams> params;  // per frame; betas are replaced by `betas` at use
   std::vector<float> texture;       // (S, S, 3)
   int tex_size = 0;
+  std::vector<float> coverage;      // (V) the mesh's learned coverage (s2.coverage); empty: none
   // Derived from the frozen bodies at the texture's current size (recomputed after a resume or
   // a level change; trainer_texture.cpp): how much the frames saw each texel, its charts and
   // the smoothness prior's per-texel weights.
@@ -348,6 +349,9 @@ struct Trainer::Impl {
   std::vector<float> compute_texture_evidence() const;
   // Stage 2 ends: low-evidence texels filled from the seen ones, the gutter dilated.
   void finish_texture(std::string& event);
+  // The mesh's coverage from the training mattes on the frozen bodies (s2.coverage; after
+  // stage 2, or on resuming a stage-3 run that has none).
+  void learn_coverage(std::string& event);
   double texture_lr() const {  // of this step (s2.lr.texture_final)
     const Stage2Config& s2 = cfg.s2;
     return s2.lr_texture_final > 0 ? LogLinearLr{s2.lr_texture, s2.lr_texture_final, s2.steps}(step) : s2.lr_texture;
@@ -362,7 +366,8 @@ struct Trainer::Impl {
   // The mesh of a posed body in a camera into m: coverage and, at stage 2, triangle ids and
   // UVs; at stage 3 depth and texture colour.
   void raster_mesh_layer(const Camera& cam, const float* posed_verts, MeshCache& m) {
-    rasterize_mesh(cam, MeshView{posed_verts, body.num_verts, body.faces.data(), body.num_faces}, raster);
+    const float* cut = stage == 3 && !coverage.empty() ? coverage.data() : nullptr;
+    rasterize_mesh(cam, MeshView{posed_verts, body.num_verts, body.faces.data(), body.num_faces, cut}, raster);
     const int np = cam.width * cam.height;
     m.tri = raster.tri;
     m.mask = raster.mask;

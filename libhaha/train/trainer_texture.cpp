@@ -2,6 +2,7 @@
 // the fill after stage 2 (train/texture_evidence.h, texture_smooth.h, texture_fill.h).
 #include <cstdio>
 
+#include "train/mesh_coverage.h"
 #include "train/texture_evidence.h"
 #include "train/texture_fill.h"
 #include "train/texture_smooth.h"
@@ -54,6 +55,23 @@ void Trainer::Impl::finish_texture(std::string& event) {
                   100.0 * double(f.unseen_texels) / double(std::max<int64_t>(1, f.chart_texels)),
                   (long long)f.seam_links);
   }
+  event += (event.empty() ? "" : "; ") + std::string(buf);
+  learn_coverage(event);
+}
+
+void Trainer::Impl::learn_coverage(std::string& event) {
+  if (!cfg.s2.coverage || !coverage.empty() || frame_verts.size() != size_t(nf)) return;
+  std::vector<CoverageFrame> frames;
+  for (int i = 0; i < nf; ++i) {
+    const TrainFrame& f = in.frames[size_t(i)];
+    if (!f.mask.empty()) frames.push_back({&f.camera, frame_verts[size_t(i)].data(), f.mask.data()});
+  }
+  if (frames.empty()) return;  // no mattes: nothing says where the person is not
+  CoverageReport rep;
+  coverage = learn_mesh_coverage(body.num_verts, body.faces.data(), body.num_faces, frames, kMinCoverageWeight, &rep);
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "mesh coverage: %d of %d vertices cut (%.1f%%) by %zu mattes", rep.cut_vertices,
+                rep.vertices, 100.0 * rep.cut_vertices / std::max(1, rep.vertices), frames.size());
   event += (event.empty() ? "" : "; ") + std::string(buf);
 }
 

@@ -633,6 +633,29 @@ TEST(CudaParity, MeshRasterInterpolateTexture) {
   expect_close("texture d_uv", guvc, guvcg.to_host(), kFwd * 10);  // per pixel; fractional parts of u W
 }
 
+// The coverage cut (render/mesh_raster.h): the same faces drawn, cut and skipped.
+TEST(CudaParity, MeshRasterCoverageCut) {
+  REQUIRE_CUDA();
+  const testgpu::AvatarScene s = testgpu::make_avatar_scene(BodyResolution::low, 0, 211, 190, 8, 128);
+  const Camera& cam = s.cam;
+  const int P = cam.width * cam.height, V = s.body.num_verts, F = s.body.num_faces;
+  const std::vector<float> cov = randv(size_t(V), 0, 1, 65);  // every kind of face: whole, cut, skipped
+  MeshRaster rc;
+  rasterize_mesh(cam, MeshView{s.verts.data(), V, s.body.faces.data(), F, cov.data()}, rc);
+  DeviceBuffer<float> verts = up(s.verts), covd = up(cov);
+  DeviceBuffer<int32_t> faces = up(s.body.faces);
+  cuda::MeshRasterCuda rg;
+  cuda::rasterize_mesh_cuda(cam, MeshView{verts.data(), V, faces.data(), F, covd.data()}, rg);
+  const std::vector<int32_t> tri_g = rg.tri.to_host();
+  int64_t covered = 0, diff = 0;
+  for (int p = 0; p < P; ++p) {
+    covered += rc.tri[size_t(p)] >= 0;
+    diff += rc.tri[size_t(p)] != tri_g[size_t(p)];
+  }
+  EXPECT_GT(covered, P / 40) << "the cut body should still cover part of the image";
+  EXPECT_LE(diff, int64_t(kCutFrac * double(covered)) + 1) << diff << " pixels see another face";
+}
+
 TEST(CudaParity, MeshRasterCameraErrors) {
   Camera cam;
   cam.width = 0;
