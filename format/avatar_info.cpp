@@ -50,6 +50,11 @@ std::optional<TextureSpeckle> avatar_texture_speckle(const Avatar& a) {
 
 namespace {
 
+// Body vertices whose mesh coverage is under the cutoff (the mesh is cut around them).
+int vertices_cut(const Avatar& a) {
+  return int(std::count_if(a.mesh_coverage.begin(), a.mesh_coverage.end(), [](float c) { return c < kCoverageCutoff; }));
+}
+
 size_t serialized_size(const GaussianPly& p) {
   static std::atomic<int> counter{0};
   const fs::path tmp = fs::temp_directory_path() /
@@ -163,6 +168,11 @@ nlohmann::json avatar_summary_json(const std::string& path, const UnpackedAvatar
     j["garment"] = {{"firstVertex", i.garment_first_vertex}, {"firstFace", i.garment_first_face},
                     {"vertices", i.body_vertex_count - i.garment_first_vertex},
                     {"faces", s.num_faces - i.garment_first_face}, {"gaussians", i.garment_gaussians}};
+  j["meshCoverage"] = nullptr;  // none: the whole mesh draws
+  if (!u.avatar.mesh_coverage.empty()) {
+    const int n = int(u.avatar.mesh_coverage.size()), cut = vertices_cut(u.avatar);
+    j["meshCoverage"] = {{"vertices", n}, {"cutoff", kCoverageCutoff}, {"verticesUnderCutoff", cut}, {"shareUnderCutoff", double(cut) / n}};
+  }
   j["subject"] = {{"betas", u.avatar.betas}, {"expression", u.avatar.expression},
                   {"faceScaleDivisor", u.avatar.face_scale_divisor}};
   j["storage"] = {{"fileBytes", r.file_bytes},
@@ -207,6 +217,12 @@ std::string avatar_summary_text(const std::string& path, const UnpackedAvatar& u
     o << "  garment       vertices from " << i.garment_first_vertex << ", faces from " << i.garment_first_face << " ("
       << (i.body_vertex_count - i.garment_first_vertex) << " vertices, " << (s.num_faces - i.garment_first_face)
       << " faces), carrying " << i.garment_gaussians << " Gaussians\n";
+  }
+  if (!u.avatar.mesh_coverage.empty()) {
+    const int n = int(u.avatar.mesh_coverage.size()), cut = vertices_cut(u.avatar);
+    std::snprintf(buf, sizeof buf, "%d of %d body vertices (%.1f %%) under the cutoff %g: the mesh is cut around them", cut, n,
+                  100.0 * cut / n, double(kCoverageCutoff));
+    o << "  coverage      " << buf << " (COLOR_0 alpha, alphaMode MASK)\n";
   }
   if (i.joint_regressor_nonzeros > 0) {
     o << "  skeleton      55 joints, joint regressor " << i.joint_regressor_nonzeros << " nonzeros (" << bytes(s.skeleton) << ")\n";

@@ -325,7 +325,25 @@ struct BodyArrays {
   std::vector<std::vector<uint16_t>> codes;           // per set (Vg, 4), lossy
   std::vector<uint16_t> source16;                     // _BODY_VERTEX when V <= 65536
   std::vector<float> source_float;                    // _BODY_VERTEX otherwise
+  // COLOR_0 (Vg, 4) of an avatar with a mesh coverage: white, alpha = the coverage of the
+  // glTF vertex's body vertex; 8-bit codes, or float32 in lossless packs. Empty: none.
+  std::vector<uint8_t> color8;
+  std::vector<float> color32;
 };
+
+// COLOR_0 from the per-body-vertex coverage. The 8-bit alpha keeps every vertex on its side
+// of the cut: c >= 0.5 rounds to >= 128/255, c < 0.5 to <= 127/255.
+void coverage_colors(const std::vector<float>& coverage, const std::vector<int32_t>& source, bool lossless, BodyArrays& r) {
+  if (coverage.empty()) return;
+  const size_t Vg = source.size();
+  if (lossless) r.color32.assign(Vg * 4, 1.0f);
+  else r.color8.assign(Vg * 4, 255);
+  for (size_t g = 0; g < Vg; ++g) {
+    const float c = coverage[size_t(source[g])];
+    if (lossless) r.color32[g * 4 + 3] = c;
+    else r.color8[g * 4 + 3] = uint8_t(std::lround(255.0 * double(c)));
+  }
+}
 
 // What every primitive gathers from: the whole mesh's rest normals and skin.
 struct WholeMesh {
@@ -364,6 +382,7 @@ BodyArrays body_arrays(const Avatar& a, const RestBody& rest, const WholeMesh& w
       r.codes.push_back(gather(std::vector<uint16_t>(first(skin.codes), first(skin.codes) + long(set_size)), r.split.source, 4));
     }
   }
+  coverage_colors(a.mesh_coverage, r.split.source, opt.lossless, r);
   if (V <= 65536) r.source16.assign(r.split.source.begin(), r.split.source.end());
   if (V > (1 << 24)) fail("avatar", "more than 2^24 body vertices");
   if (V > 65536) r.source_float.assign(r.split.source.begin(), r.split.source.end());
@@ -403,6 +422,9 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
     if (lossless) mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::f32, 4, r.weights[size_t(s)].data(), 0});
     else mattrs.push_back({"WEIGHTS_" + std::to_string(s), Kind::generic, Type::u16, 4, r.codes[size_t(s)].data(), 0, true, true});
   }
+  const bool coverage = !r.color8.empty() || !r.color32.empty();
+  if (!r.color8.empty()) mattrs.push_back({"COLOR_0", Kind::color, Type::u8, 4, r.color8.data(), 0, true, true});
+  if (!r.color32.empty()) mattrs.push_back({"COLOR_0", Kind::color, Type::f32, 4, r.color32.data(), 0});
   const bool wide_index = r.source16.empty();
   mattrs.push_back({"_BODY_VERTEX", Kind::generic, wide_index ? Type::f32 : Type::u16, 1,
                     wide_index ? static_cast<const void*>(r.source_float.data()) : static_cast<const void*>(r.source16.data()), 0});
@@ -444,6 +466,11 @@ Json add_draco_body_mesh(GlbDoc& d, const Avatar& a, const BodyArrays& r, const 
     if (!lossless) w["normalized"] = true;
     prim_attrs["WEIGHTS_" + std::to_string(s)] = d.add_accessor(w);
   }
+  if (coverage) {
+    Json c = {{"componentType", lossless ? kFloat : kUByte}, {"count", Vf}, {"type", "VEC4"}};
+    if (!lossless) c["normalized"] = true;
+    prim_attrs["COLOR_0"] = d.add_accessor(c);
+  }
   prim_attrs["_BODY_VERTEX"] = d.add_accessor({{"componentType", wide_index ? kFloat : kUShort}, {"count", Vf}, {"type", "SCALAR"}});
   for (size_t i = 0; i < first_private; ++i) draco_attrs[mattrs[i].name] = mesh_enc.unique_ids[i];
 
@@ -480,6 +507,10 @@ Json add_plain_body_mesh(GlbDoc& d, const BodyArrays& r, const PackOptions& opt)
                                {{"componentType", kUByte}, {"count", Vg}, {"type", "VEC4"}});
     attrs["WEIGHTS_" + n] = add(r.codes[size_t(s)].data(), r.codes[size_t(s)].size() * 2, kArrayBuffer,
                                 {{"componentType", kUShort}, {"normalized", true}, {"count", Vg}, {"type", "VEC4"}});
+  }
+  if (!r.color8.empty()) {
+    attrs["COLOR_0"] = add(r.color8.data(), r.color8.size(), kArrayBuffer,
+                           {{"componentType", kUByte}, {"normalized", true}, {"count", Vg}, {"type", "VEC4"}});
   }
   // Unsigned shorts padded to glTF's 4-byte vertex alignment (byteStride 4), so a tool that
   // re-encodes the mesh keeps them integers (a float map would be quantized); float (exact
@@ -650,6 +681,12 @@ void add_texture(GlbDoc& d, const Avatar& a, const PackOptions& opt) {
   d.materials = Json::array({{{"name", "avatar"},
                               {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}},
                               {"extensions", {{"KHR_materials_unlit", Json::object()}}}}});
+  // A mesh coverage is COLOR_0's alpha, which glTF multiplies into the base colour: MASK
+  // cuts the mesh in every viewer where haha's renderer cuts it.
+  if (!a.mesh_coverage.empty()) {
+    d.materials[0]["alphaMode"] = "MASK";
+    d.materials[0]["alphaCutoff"] = glb::json_float(kCoverageCutoff);
+  }
   d.ext["texture"] = {{"image", 0}, {"crc32", d.bin.view_crc(img_view)}, {"width", tex.width}, {"height", tex.height}};
 }
 

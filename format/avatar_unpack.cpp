@@ -101,6 +101,7 @@ class AvatarReader {
     std::vector<int32_t> faces;                        // (F, 3) glTF vertices
     std::vector<std::vector<int64_t>> joints;          // per set (Vg, 4)
     std::vector<std::vector<float>> weights;           // per set (Vg, 4), decoded
+    std::vector<float> color;                          // COLOR_0 (Vg, 4) in [0, 1]; empty: none
   };
 
   int draco_id(const Json& map, const std::string& name, const std::string& what) const {
@@ -157,6 +158,8 @@ class AvatarReader {
       // Faces of this primitive: the garment's from body.garment.firstFace on.
       const int64_t first = p == 0 ? 0 : info_.garment_first_face, last = prims.size() == 1 || p == 1 ? F_ : info_.garment_first_face;
       mesh_primitive(prims[p], "meshes[" + std::to_string(mesh_index) + "].primitives[" + std::to_string(p) + "]", p, last - first);
+      // The coverage is one per body vertex, garment included: all primitives or none.
+      if (p > 0 && all.color.empty() != m_.color.empty()) fail(where_, P_ + ": COLOR_0 on some body mesh primitives but not on all");
       append_primitive(all, m_);
     }
     m_ = std::move(all);
@@ -174,6 +177,7 @@ class AvatarReader {
     if (Vg_ < V_) fail(where_, "body mesh: fewer glTF vertices than body vertices");
     if (jg_) garment_vertices_last();
     body_arrays_from_mesh();
+    mesh_coverage(mesh_index);
   }
 
   // One primitive (Draco or plain accessors) into m_, `faces` triangles expected; its
@@ -208,6 +212,7 @@ class AvatarReader {
     cat(all.uv, p.uv);
     cat(all.uv_src, p.uv_src);
     cat(all.source, p.source);
+    cat(all.color, p.color);
     for (int32_t c : p.faces) all.faces.push_back(c + shift);
     all.joints.resize(p.joints.size());
     all.weights.resize(p.weights.size());
@@ -252,6 +257,7 @@ class AvatarReader {
     m_.uv = permuted(m_.uv, 2);
     m_.uv_src = permuted(m_.uv_src, 2);
     m_.source = permuted(m_.source, 1);
+    m_.color = permuted(m_.color, 4);
     for (auto& j : m_.joints) j = permuted(j, 4);
     for (auto& w : m_.weights) w = permuted(w, 4);
     for (int32_t& c : m_.faces) c = at[size_t(c)];
@@ -296,6 +302,58 @@ class AvatarReader {
       body.garment_first_uv = garment_first_uv_;
       body.garment_chart = garment_chart_;
     }
+  }
+
+  // The mesh coverage (Avatar::mesh_coverage) from COLOR_0's alpha: white (the texture alone
+  // colours the mesh), the same alpha on every glTF vertex of a body vertex, and a material
+  // that cuts where haha does (alphaMode MASK at kCoverageCutoff); no COLOR_0, no MASK.
+  void mesh_coverage(int64_t mesh_index) {
+    const std::string P = "meshes[" + std::to_string(mesh_index) + "]";
+    const std::string mask = coverage_material(mesh_index);
+    if (m_.color.empty()) {
+      if (!mask.empty()) fail(where_, mask + ": alphaMode MASK, but the body mesh has no COLOR_0 (the mesh coverage)");
+      return;
+    }
+    if (mask.empty()) fail(where_, P + ": COLOR_0 (the mesh coverage) without its material's alphaMode MASK");
+    if (m_.color.size() != size_t(Vg_) * 4) fail(where_, P + ": COLOR_0 does not cover every glTF vertex");
+    std::vector<float>& c = a_.mesh_coverage;
+    c.assign(size_t(V_), -1.0f);
+    for (int gi = 0; gi < Vg_; ++gi) {
+      const float* rgba = &m_.color[size_t(gi) * 4];
+      const size_t v = size_t(m_.source[size_t(gi)]);
+      if (rgba[0] != 1.0f || rgba[1] != 1.0f || rgba[2] != 1.0f) {
+        fail(where_, P + ": COLOR_0 of body vertex " + std::to_string(v) + " is not white (only its alpha, the mesh coverage, may vary)");
+      }
+      if (!(rgba[3] >= 0.0f && rgba[3] <= 1.0f)) fail(where_, P + ": COLOR_0 alpha of body vertex " + std::to_string(v) + " is not in [0, 1]");
+      if (c[v] >= 0.0f && c[v] != rgba[3]) {
+        fail(where_, P + ": COLOR_0 alpha of body vertex " + std::to_string(v) + " differs between its glTF vertices (seam duplicates)");
+      }
+      c[v] = rgba[3];
+    }
+    m_.color.clear();
+  }
+
+  // The body primitives' material when it cuts by alpha (alphaMode MASK): its JSON path, after
+  // checking the cutoff is kCoverageCutoff; "" for OPAQUE (or BLEND: drawn whole by haha).
+  std::string coverage_material(int64_t mesh_index) {
+    const Json& prims = member(element(root_, "meshes", mesh_index, where_), "primitives", where_, "body mesh");
+    std::string found;
+    for (size_t p = 0; p < prims.size(); ++p) {
+      const Json* m = find_member(prims[p], "material");
+      if (!m) continue;
+      const int64_t mi = as_int(*m, where_, "body mesh material", 0, kMaxCount);
+      const Json& mat = element(root_, "materials", mi, where_);
+      const std::string M = "materials[" + std::to_string(mi) + "]";
+      const Json* mode = find_member(mat, "alphaMode");
+      if (!mode || as_string(*mode, where_, M + ".alphaMode") != "MASK") continue;
+      const Json* cut = find_member(mat, "alphaCutoff");
+      const double cutoff = cut ? as_number(*cut, where_, M + ".alphaCutoff") : 0.5;  // glTF's default
+      if (cutoff != double(kCoverageCutoff)) {
+        fail(where_, M + ".alphaCutoff: " + std::to_string(cutoff) + ", the mesh coverage cuts at " + std::to_string(kCoverageCutoff));
+      }
+      found = M;
+    }
+    return found;
   }
 
   // The KHR_draco_mesh_compression stream into m_ (versions 1-2: the vertex map is the
@@ -360,6 +418,25 @@ class AvatarReader {
       m_.joints.push_back(dec.ints(draco_id(dattrs, jn, K), 4, jn));
       m_.weights.push_back(draco_values(dec, dattrs, wn, 4));
     }
+    if (find_member(*pattrs_, "COLOR_0")) {
+      color_accessor_type();
+      m_.color = draco_values(dec, dattrs, "COLOR_0", 4);
+    }
+  }
+
+  // COLOR_0 holds the mesh coverage in its alpha: VEC4 (VEC3 has none), and a component
+  // type glTF allows for colours.
+  void color_accessor_type() {
+    const std::string what = P_ + ".attributes.COLOR_0";
+    const Json& acc = element(root_, "accessors", as_int(member(*pattrs_, "COLOR_0", where_, P_ + ".attributes"), where_, what, 0, kMaxCount), where_);
+    const std::string type = as_string(member(acc, "type", where_, what), where_, what + ".type");
+    if (type != "VEC4") fail(where_, what + ": type " + type + ", expected VEC4 (the mesh coverage is its alpha)");
+    const int64_t ct = as_int(member(acc, "componentType", where_, what), where_, what + ".componentType", 5120, 5126);
+    const Json* n = find_member(acc, "normalized");
+    const bool normalized = n && n->is_boolean() && n->get<bool>();
+    if (!(ct == 5126 || ((ct == 5121 || ct == 5123) && normalized))) {
+      fail(where_, what + ": componentType " + std::to_string(ct) + " (glTF colours are float or normalized unsigned byte / short)");
+    }
   }
 
   // A decoded Draco attribute as the primitive's accessor says it is stored: float, or
@@ -409,6 +486,10 @@ class AvatarReader {
       const std::string jn = "JOINTS_" + std::to_string(s), wn = "WEIGHTS_" + std::to_string(s);
       m_.joints.push_back(integers(check_count(attribute(jn.c_str(), 4), jn.c_str()), jn));
       m_.weights.push_back(to_floats(check_count(attribute(wn.c_str(), 4), wn.c_str()).values));
+    }
+    if (find_member(*pattrs_, "COLOR_0")) {
+      color_accessor_type();
+      m_.color = to_floats(check_count(attribute("COLOR_0", 4), "COLOR_0").values);
     }
     if (const Json* ind = find_member(prim, "indices")) {
       const glb::AccessorValues idx = glb::read_accessor(g_, as_int(*ind, where_, P_ + ".indices", 0, kMaxCount), 1, where_, P_ + ".indices");

@@ -38,6 +38,7 @@ draco::GeometryAttribute::Type to_draco(Kind k) {
     case Kind::position: return draco::GeometryAttribute::POSITION;
     case Kind::normal: return draco::GeometryAttribute::NORMAL;
     case Kind::texcoord: return draco::GeometryAttribute::TEX_COORD;
+    case Kind::color: return draco::GeometryAttribute::COLOR;
     case Kind::generic: return draco::GeometryAttribute::GENERIC;
   }
   return draco::GeometryAttribute::GENERIC;

@@ -17,7 +17,7 @@ class Mesh;
 
 namespace haha::dracoio {
 
-enum class Kind { position, normal, texcoord, generic };
+enum class Kind { position, normal, texcoord, color, generic };
 enum class Type { f32, i32, u8, u16, u32 };
 enum class Method { sequential, edgebreaker };
 

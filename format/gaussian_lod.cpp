@@ -40,6 +40,7 @@ Avatar subset(const Avatar& a, const std::vector<int32_t>& order, int n) {
   s.texture = a.texture;
   s.face_scale_divisor = a.face_scale_divisor;
   s.depth_margin = a.depth_margin;
+  s.mesh_coverage = a.mesh_coverage;
   const BoundGaussians& g = a.gaussians;
   s.gaussians.resize(n);
   for (int i = 0; i < n; ++i) {

@@ -29,6 +29,7 @@ static_assert(HAHA_RUNTIME_VERSION_MAJOR == HAHA_PROJECT_VERSION_MAJOR &&
                   HAHA_RUNTIME_VERSION_PATCH == HAHA_PROJECT_VERSION_PATCH,
               "haha_runtime.h version macros differ from project(haha VERSION ...) in CMakeLists.txt");
 static_assert(HAHA_NUM_JOINTS == haha::kNumJoints && HAHA_NUM_POSE_VALUES == haha::kNumPoseValues);
+static_assert(HAHA_MESH_COVERAGE_CUTOFF == haha::kCoverageCutoff);
 
 struct haha_avatar {
   haha::AvatarLoader rt;
@@ -317,6 +318,21 @@ HAHA_API haha_status haha_avatar_texture(const haha_avatar* avatar, uint8_t* rgb
     require(rgb != nullptr || t.rgb.empty(), "haha_avatar_texture", "rgb is NULL");
     require_capacity("haha_avatar_texture", "rgb", capacity, t.rgb.size());
     for (size_t i = 0; i < t.rgb.size(); ++i) rgb[i] = to_byte(t.rgb[i]);
+  });
+}
+
+HAHA_API haha_status haha_avatar_mesh_coverage(const haha_avatar* avatar, float* per_vertex, size_t capacity,
+                                               int32_t* has_coverage) {
+  return guarded("haha_avatar_mesh_coverage", HAHA_ERROR_INTERNAL, [&] {
+    require(avatar != nullptr, "haha_avatar_mesh_coverage", "avatar is NULL");
+    const haha::Avatar& a = avatar_of(avatar);
+    const size_t V = size_t(a.body.num_verts);
+    if (per_vertex) {
+      require_capacity("haha_avatar_mesh_coverage", "per_vertex", capacity, V);
+      // Without a coverage every vertex draws: 1 keeps one shader path for every avatar.
+      for (size_t v = 0; v < V; ++v) per_vertex[v] = a.mesh_coverage.empty() ? 1.0f : a.mesh_coverage[v];
+    }
+    if (has_coverage) *has_coverage = a.mesh_coverage.empty() ? 0 : 1;
   });
 }
 

@@ -9,6 +9,8 @@
 //                  versions 1-2: the private Draco attribute BODY_VERTEX)
 //   weights:       all JOINTS_n / WEIGHTS_n sets summed per body vertex; version 1-2
 //                  quantized weights renormalised (version 3 codes sum to one exactly)
+//   mesh coverage: COLOR_0 alpha per body vertex (white, alike on seam duplicates) with the
+//                  material's alphaMode MASK at 0.5, or none (meshCoverage null)
 //   joints:        regressed from the rest vertices (sparse jointRegressor), or, in version-2
 //                  files without one, minus the inverse bind matrices' translations
 //   faces:         gaussians.faceOrder "canonical" (version 3): the faces sorted into the
@@ -31,6 +33,7 @@ export const VERSION = 4, OLDEST_VERSION = 1;  // format versions this reader im
 const SUPPORTED_REQUIRED = new Set(['KHR_draco_mesh_compression', 'EXT_texture_webp', 'KHR_materials_unlit', 'HAHA_gaussian_avatar']);
 const ARRAY_OF = { 5120: 'Int8Array', 5121: 'Uint8Array', 5122: 'Int16Array', 5123: 'Uint16Array', 5125: 'Uint32Array', 5126: 'Float32Array' };
 const FULL_SCALE = { 5120: 127, 5121: 255, 5122: 32767, 5123: 65535 };
+export const MESH_COVERAGE_CUTOFF = 0.5;  // kCoverageCutoff: the mesh draws where coverage >= this
 export const NUM_POSE_FEATURES = 486;
 const EXT = 'HAHA_gaussian_avatar';
 const ZERO3 = [0, 0, 0];
@@ -147,7 +150,19 @@ function concatPrimitives(parts) {
     pos: cat(parts.map((p) => Float32Array.from(p.pos))), uv: cat(parts.map((p) => Float32Array.from(p.uv))),
     source: cat(parts.map((p) => Int32Array.from(p.source))), index, joints, weights,
     edgebreaker: parts.some((p) => p.edgebreaker),
+    color: parts[0].color ? cat(parts.map((p) => Float32Array.from(p.color))) : null,
   };
+}
+
+// COLOR_0 holds the mesh coverage in its alpha: VEC4 of float or normalized unsigned byte /
+// short (the colour types glTF allows).
+function checkColorAccessor(acc, fail) {
+  if (!acc) fail('body mesh: attribute COLOR_0 has no accessor');
+  if (acc.type !== 'VEC4') fail(`body mesh: COLOR_0: type ${acc.type}, expected VEC4 (the mesh coverage is its alpha)`);
+  const ct = acc.componentType;
+  if (!(ct === 5126 || ((ct === 5121 || ct === 5123) && acc.normalized === true))) {
+    fail(`body mesh: COLOR_0: componentType ${ct} (glTF colours are float or normalized unsigned byte / short)`);
+  }
 }
 
 export class Avatar {
@@ -165,6 +180,7 @@ export class Avatar {
     const sets = this._readExtension(glb, fail);
     const m = await this._readBodyMesh(sets, decode, fail);
     this._readRestVerticesAndFaces(m, fail);
+    this._readMeshCoverage(m, fail);
     this._readSkinWeights(m, sets, fail);
     const skin = this._readSkeleton(fail);
     this._readRestJoints(skin, fail);
@@ -223,6 +239,7 @@ export class Avatar {
       if (kd && !jd) this.meshRewritten = true;
       parts.push(kd ? await this._dracoBody(glb, prim, kd, jd, sets, decode, fail) : this._plainBody(glb, prim, sets, fail));
       if (p === 0) this.meshDraco = !!kd;
+      if (p > 0 && !parts[0].color !== !parts[p].color) fail('body mesh: COLOR_0 on some body mesh primitives but not on all');
     }
     return parts.length === 1 ? parts[0] : concatPrimitives(parts);
   }
@@ -254,6 +271,42 @@ export class Avatar {
     const faces = new Int32Array(3 * F);
     for (let c = 0; c < 3 * F; c++) faces[c] = src[this.gltfFaces[c]];
     this.faces = faces;                     // (F, 3) body vertex indices (in the Gaussians' face order, below)
+  }
+
+  // --- mesh coverage, as avatar_unpack.cpp mesh_coverage(): COLOR_0 alpha per body vertex ---
+  // this.meshCoverage: Float32Array (V) in [0, 1], or null (the whole mesh draws). The
+  // material must cut where the coverage does (alphaMode MASK, alphaCutoff 0.5), and only then.
+  _readMeshCoverage(m, fail) {
+    const root = this.glb.json, prims = root.meshes[this.ext.body.mesh].primitives;
+    let mask = null;
+    for (const p of prims) {
+      if (p.material === undefined) continue;
+      const mat = (root.materials || [])[p.material];
+      if (!mat) fail(`body mesh: material ${p.material} does not exist`);
+      if (mat.alphaMode !== 'MASK') continue;
+      const cutoff = mat.alphaCutoff === undefined ? 0.5 : mat.alphaCutoff;  // glTF's default
+      if (cutoff !== MESH_COVERAGE_CUTOFF) fail(`materials[${p.material}].alphaCutoff: ${cutoff}, the mesh coverage cuts at ${MESH_COVERAGE_CUTOFF}`);
+      mask = `materials[${p.material}]`;
+    }
+    this.meshCoverage = null;
+    if (!m.color) {
+      if (mask) fail(`${mask}: alphaMode MASK, but the body mesh has no COLOR_0 (the mesh coverage)`);
+      return;
+    }
+    if (!mask) fail('body mesh: COLOR_0 (the mesh coverage) without its material\'s alphaMode MASK');
+    const V = this.V, Vg = this.Vg, src = m.source, c = m.color;
+    if (c.length !== 4 * Vg) fail('body mesh: COLOR_0 does not cover every glTF vertex');
+    const cov = new Float32Array(V).fill(-1);
+    for (let g = 0; g < Vg; g++) {
+      const v = src[g], a = c[4 * g + 3];
+      if (c[4 * g] !== 1 || c[4 * g + 1] !== 1 || c[4 * g + 2] !== 1) {
+        fail(`body mesh: COLOR_0 of body vertex ${v} is not white (only its alpha, the mesh coverage, may vary)`);
+      }
+      if (!(a >= 0 && a <= 1)) fail(`body mesh: COLOR_0 alpha of body vertex ${v} is not in [0, 1]`);
+      if (cov[v] >= 0 && cov[v] !== Math.fround(a)) fail(`body mesh: COLOR_0 alpha of body vertex ${v} differs between its glTF vertices (seam duplicates)`);
+      cov[v] = a;
+    }
+    this.meshCoverage = cov;
   }
 
   // --- skinning weights, as avatar_unpack.cpp skin_weights(): dense per vertex, sparse here ---
@@ -528,6 +581,13 @@ export class Avatar {
         fail(`WEIGHTS_${s} accessor: componentType ${wa.componentType} is not a glTF weight type`);
       }
     }
+    const hasColor = (prim.attributes || {}).COLOR_0 !== undefined;
+    if (hasColor) {
+      const ca = accessorOf('COLOR_0');
+      checkColorAccessor(ca, fail);
+      want('COLOR_0', da.COLOR_0, ARRAY_OF[ca.componentType]);
+      if (ca.normalized) norm.COLOR_0 = FULL_SCALE[ca.componentType];
+    }
     const d = await decode(bytes, ids, types);
     if (!d.index) fail('body mesh: the Draco stream has no faces');
     const Vg = d.BODY_VERTEX.length;
@@ -543,7 +603,8 @@ export class Avatar {
     };
     const joints = [], weights = [];
     for (let s = 0; s < sets; s++) { joints.push(d[`JOINTS_${s}`]); weights.push(toFloat(`WEIGHTS_${s}`)); }
-    return { pos: d.POSITION, uv: toFloat('TEXCOORD_0'), source: d.BODY_VERTEX, index: d.index, joints, weights, edgebreaker };
+    const color = hasColor ? toFloat('COLOR_0') : null;
+    return { pos: d.POSITION, uv: toFloat('TEXCOORD_0'), source: d.BODY_VERTEX, index: d.index, joints, weights, edgebreaker, color };
   }
 
   // Plain accessors (version 3; any layout glTF allows, e.g. as rewritten by tools).
@@ -587,7 +648,12 @@ export class Avatar {
       for (let i = 0; i < Vg; i++) index[i] = i;
     }
     if (index.length % 3) fail('body mesh: index count is not a multiple of 3');
-    return { pos: p, uv, source, index, joints, weights, edgebreaker: false };
+    let color = null;
+    if (attrs.COLOR_0 !== undefined) {
+      checkColorAccessor((glb.json.accessors || [])[attrs.COLOR_0], fail);
+      color = Float32Array.from(same(read('COLOR_0', 4), 'COLOR_0').values);
+    }
+    return { pos: p, uv, source, index, joints, weights, edgebreaker: false, color };
   }
 
   // Skinning matrices A_j (3 x 4, row-major) of a pose (165 axis-angle values).

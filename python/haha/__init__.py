@@ -30,9 +30,10 @@ from .pose_state import PoseState, Posed
 
 NUM_JOINTS = 55
 NUM_POSE_VALUES = 165
+MESH_COVERAGE_CUTOFF = 0.5  # HAHA_MESH_COVERAGE_CUTOFF: the mesh draws where coverage >= this
 
 __all__ = ["Animation", "Avatar", "Camera", "Motion", "PoseState", "Posed", "framing_camera", "write_png", "JOINT_NAMES",
-           "joint_index", "NUM_JOINTS", "NUM_POSE_VALUES", "runtime_version", "set_num_threads", "library_path",
+           "joint_index", "NUM_JOINTS", "NUM_POSE_VALUES", "MESH_COVERAGE_CUTOFF", "runtime_version", "set_num_threads", "library_path",
            "HahaError", "ArgumentError", "FileError", "FormatError", "StateError", "OutOfMemoryError",
            "InternalError", "LibraryNotFoundError"]
 

@@ -64,6 +64,7 @@ _PROTOTYPES = {
     "haha_avatar_faces": (_st, [_vp, c_uint32_p, _sz]),
     "haha_avatar_face_uvs": (_st, [_vp, c_float_p, _sz]),
     "haha_avatar_texture": (_st, [_vp, c_uint8_p, _sz]),
+    "haha_avatar_mesh_coverage": (_st, [_vp, c_float_p, _sz, c_int32_p]),
     "haha_posed_create": (_st, [_vp, ctypes.POINTER(_vp)]),
     "haha_posed_free": (None, [_vp]),
     "haha_repose": (_st, [_vp, c_float_p, c_float_p, c_float_p, _sz, c_float_p, _sz]),

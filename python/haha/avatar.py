@@ -93,6 +93,17 @@ class Avatar:
         return out
 
     @property
+    def mesh_coverage(self):
+        """(V,) float32 coverage per body vertex, or None when the file has none (the whole mesh
+        draws). The mesh draws where the interpolation of a face's three values is >=
+        haha.MESH_COVERAGE_CUTOFF: discard the rest (and keep it out of the depth pass)."""
+        out = np.zeros(self.num_vertices, dtype=np.float32)
+        has = ctypes.c_int32(0)
+        call("haha_avatar_mesh_coverage", self._handle, out.ctypes.data_as(ctypes.POINTER(ctypes.c_float)), out.size,
+             ctypes.byref(has))
+        return out if has.value else None
+
+    @property
     def texture(self):
         """(H, W, 3) uint8 texture, top row first, display-encoded as stored; None without one."""
         w, h = self.texture_size

@@ -187,6 +187,8 @@ namespace Haha
         public const int NumJoints = 55;
         /// <summary>HAHA_NUM_POSE_VALUES: 55 joints x axis-angle.</summary>
         public const int NumPoseValues = 165;
+        /// <summary>HAHA_MESH_COVERAGE_CUTOFF: the mesh draws where its interpolated coverage is >= this.</summary>
+        public const float MeshCoverageCutoff = 0.5f;
 
         /// <summary>The loaded library's version (haha_version).</summary>
         public static Version Version
@@ -346,6 +348,29 @@ namespace Haha
             GetTexture(a);
             return a;
         }
+
+        /// <summary>The mesh coverage, one value in [0, 1] per body vertex (V; 1 everywhere when
+        /// the file has none): draw the mesh only where the interpolation of a face's three values
+        /// is >= HahaRuntime.MeshCoverageCutoff (an alpha test, in the depth pass too). An empty
+        /// span only asks. Returns whether the file carries a coverage.</summary>
+        public unsafe bool GetMeshCoverage(Span<float> perVertex)
+        {
+            int has;
+            fixed (float* p = &MemoryMarshal.GetReference(perVertex))
+                Native.Check(Native.haha_avatar_mesh_coverage(Live, perVertex.IsEmpty ? null : p, (UIntPtr)perVertex.Length, out has),
+                             "haha_avatar_mesh_coverage");
+            return has != 0;
+        }
+
+        public float[] GetMeshCoverage()
+        {
+            var a = new float[Info.NumVertices];
+            GetMeshCoverage(a);
+            return a;
+        }
+
+        /// <summary>Whether the file carries a mesh coverage (the mesh is cut where it is low).</summary>
+        public bool HasMeshCoverage { get { return GetMeshCoverage(Span<float>.Empty); } }
 
         /// <summary>A new pose state (haha_posed_create): keep one per character.</summary>
         public Posed CreatePosed()
@@ -750,6 +775,8 @@ namespace Haha
         public static extern HahaStatus haha_avatar_face_uvs(AvatarHandle avatar, float* uvs, UIntPtr capacity);
         [DllImport(LibraryName, CallingConvention = Cdecl)]
         public static extern HahaStatus haha_avatar_texture(AvatarHandle avatar, byte* rgb, UIntPtr capacity);
+        [DllImport(LibraryName, CallingConvention = Cdecl)]
+        public static extern HahaStatus haha_avatar_mesh_coverage(AvatarHandle avatar, float* perVertex, UIntPtr capacity, out int hasCoverage);
 
         [DllImport(LibraryName, CallingConvention = Cdecl)]
         public static extern HahaStatus haha_posed_create(AvatarHandle avatar, out PosedHandle posed);

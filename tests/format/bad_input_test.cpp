@@ -176,6 +176,86 @@ TEST(FormatBadInput, PlainMeshAccessors) {
                "index 65000 out of range");
 }
 
+// The mesh coverage (COLOR_0 alpha + alphaMode MASK): the accessor's shape and type, its
+// count, white RGB, one alpha per body vertex, the material's cut, all primitives or none.
+struct CoverageFixture {
+  Avatar avatar = test::with_test_coverage(test::with_test_garment(test::without_degenerate_face(test::make_test_avatar(80))));
+  std::vector<uint8_t> draco = pack_avatar(avatar, PackOptions{});
+  std::vector<uint8_t> plain = [this] {
+    PackOptions o;
+    o.mesh_compression = MeshCompression::none;
+    return pack_avatar(avatar, o);
+  }();
+};
+const CoverageFixture& coverage_fx() {
+  static const CoverageFixture f;
+  return f;
+}
+
+// Points primitive `p`'s COLOR_0 at a new float VEC4 accessor holding `rgba`.
+void set_colors(Json& j, std::vector<uint8_t>& bin, size_t p, const std::vector<float>& rgba) {
+  while (bin.size() % 4) bin.push_back(0);
+  const size_t off = bin.size();
+  bin.resize(off + rgba.size() * 4);
+  std::memcpy(&bin[off], rgba.data(), rgba.size() * 4);
+  j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", off}, {"byteLength", rgba.size() * 4}});
+  j["accessors"].push_back({{"bufferView", j["bufferViews"].size() - 1}, {"componentType", 5126}, {"count", rgba.size() / 4}, {"type", "VEC4"}});
+  j["meshes"][0]["primitives"][p]["attributes"]["COLOR_0"] = j["accessors"].size() - 1;
+}
+
+// Primitive 0's colours as the file stores them, as floats, with their body vertices.
+std::pair<std::vector<float>, std::vector<int64_t>> colors_of(const std::vector<uint8_t>& bytes) {
+  const glb::Glb g = glb::parse_glb(bytes.data(), bytes.size(), "fixture");
+  const Json& a = g.json["meshes"][0]["primitives"][0]["attributes"];
+  const glb::AccessorValues c = glb::read_accessor(g, a["COLOR_0"].get<int64_t>(), 4, "fixture", "COLOR_0");
+  const glb::AccessorValues b = glb::read_accessor(g, a["_BODY_VERTEX"].get<int64_t>(), 1, "fixture", "_BODY_VERTEX");
+  return {std::vector<float>(c.values.begin(), c.values.end()), std::vector<int64_t>(b.values.begin(), b.values.end())};
+}
+
+TEST(FormatBadInput, MeshCoverage) {
+  const CoverageFixture& f = coverage_fx();
+  EXPECT_EQ(unpack_avatar(f.plain.data(), f.plain.size(), kName).avatar.mesh_coverage.size(), f.avatar.mesh_coverage.size());
+  auto color_acc = [](Json& j, size_t p = 0) -> Json& { return j["accessors"][j["meshes"][0]["primitives"][p]["attributes"]["COLOR_0"].get<size_t>()]; };
+  for (const std::vector<uint8_t>* file : {&f.plain, &f.draco}) {
+    expect_error(edited(*file, [&](Json& j, auto&) { color_acc(j)["type"] = "VEC3"; }), "COLOR_0: type VEC3, expected VEC4");
+    expect_error(edited(*file, [&](Json& j, auto&) { color_acc(j)["componentType"] = 5122; }), "COLOR_0: componentType 5122");
+    expect_error(edited(*file, [&](Json& j, auto&) { color_acc(j).erase("normalized"); }), "COLOR_0: componentType 5121");
+    expect_error(edited(*file, [&](Json& j, auto&) { j["materials"][0].erase("alphaMode"); }), "without its material's alphaMode MASK");
+    expect_error(edited(*file, [&](Json& j, auto&) { j["materials"][0]["alphaCutoff"] = 0.3; }), "alphaCutoff");
+    expect_error(edited(*file, [&](Json& j, auto&) { j["materials"][0]["alphaMode"] = "BLEND"; }), "without its material's alphaMode MASK");
+    // The garment's primitive without it, and a MASK material without any.
+    expect_error(edited(*file, [&](Json& j, auto&) {
+                   j["meshes"][0]["primitives"][1]["attributes"].erase("COLOR_0");
+                   if (j["meshes"][0]["primitives"][1].contains("extensions"))
+                     j["meshes"][0]["primitives"][1]["extensions"]["KHR_draco_mesh_compression"]["attributes"].erase("COLOR_0");
+                 }),
+                 "COLOR_0 on some body mesh primitives but not on all");
+    expect_error(edited(*file, [&](Json& j, auto&) {
+                   for (Json& p : j["meshes"][0]["primitives"]) p["attributes"].erase("COLOR_0");
+                 }),
+                 "alphaMode MASK, but the body mesh has no COLOR_0");
+  }
+  expect_error(edited(f.plain, [&](Json& j, auto&) { color_acc(j)["count"] = color_acc(j)["count"].get<int>() - 1; }), "COLOR_0 has");
+  // Values (a float accessor in place of the packed one): seam duplicates that disagree, a
+  // tinted colour, an alpha outside [0, 1].
+  const auto [rgba, body] = colors_of(f.plain);
+  size_t dup = 0;
+  for (size_t g = 0; g < body.size() && !dup; ++g)
+    for (size_t e = 0; e < g; ++e)
+      if (body[e] == body[g]) dup = g;
+  ASSERT_GT(dup, 0u) << "the fixture must have a seam duplicate";
+  auto with = [&](size_t at, float value) {
+    std::vector<float> c = rgba;
+    c[at] = value;
+    return edited(f.plain, [&](Json& j, std::vector<uint8_t>& bin) { set_colors(j, bin, 0, c); });
+  };
+  EXPECT_NO_THROW(unpack_avatar(with(0, 1.0f).data(), with(0, 1.0f).size(), kName));
+  expect_error(with(dup * 4 + 3, rgba[dup * 4 + 3] > 0.5f ? 0.0f : 1.0f), "differs between its glTF vertices (seam duplicates)");
+  expect_error(with(1, 0.5f), "is not white");
+  expect_error(with(3, 1.5f), "alpha of body vertex");
+  expect_error(with(3, std::nanf("")), "alpha of body vertex");
+}
+
 // Version-2 parts that a corrupt file can get wrong: an edgebreaker mesh in a version-1
 // file, a method that contradicts the stream, FACE_CORNER out of range or inconsistent,
 // rest joints without usable inverse bind matrices.

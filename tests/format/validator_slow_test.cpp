@@ -137,6 +137,27 @@ TEST_F(FormatValidator, GarmentPrimitiveHasZeroErrors) {
   }
 }
 
+// A mesh coverage: COLOR_0 (normalized bytes, or float32 in the lossless Draco stream) on
+// both primitives and the MASK material, with zero errors and no warning about any of it.
+TEST_F(FormatValidator, MeshCoverageHasZeroErrors) {
+  const Avatar a = test::with_test_coverage(test::with_test_garment(test::without_degenerate_face(test::make_test_avatar(200, 2, 64, 64))));
+  const int F = a.body.num_faces;
+  PackOptions plain, lossless;
+  plain.mesh_compression = MeshCompression::none;
+  lossless.lossless = true;
+  for (const auto& [name, o] : {std::pair<const char*, PackOptions>{"coverage.glb", PackOptions{}}, {"coverage_plain.glb", plain},
+                                {"coverage_lossless.glb", lossless}}) {
+    const fs::path p = write(name, a, o);
+    expect_no_errors(p, F);
+    const Report r = validate(p);
+    for (const auto& m : r.json["issues"]["messages"]) {
+      const std::string text = m.dump();
+      EXPECT_EQ(text.find("COLOR_0"), std::string::npos) << name << ": " << text;
+      EXPECT_EQ(text.find("alpha"), std::string::npos) << name << ": " << text;
+    }
+  }
+}
+
 TEST_F(FormatValidator, RealisticAvatarHasZeroErrors) {
   const Avatar a = test::make_realistic_avatar(3000, 256);
   expect_no_errors(write("realistic.glb", a, PackOptions{}), a.body.num_faces);

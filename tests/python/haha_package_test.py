@@ -8,7 +8,8 @@ Makes a realistic-size Draco avatar and a 3-frame motion (python_avatar_fixture)
     (c_reference.c) for the same pose and camera;
   - the package's renders of the motion with haha.framing_camera are byte-identical to the
     frames samples/c (haha_sample_c) writes;
-  - bad input raises the right exception with one clear line naming the file or argument.
+  - bad input raises the right exception with one clear line naming the file or argument;
+  - Avatar.mesh_coverage gives a file's coverage per body vertex (None without one).
 Exit 0 pass, 1 fail (each check printed).
 """
 import argparse
@@ -165,6 +166,17 @@ def test_animation(haha, args, motion_path):
     expect_error(haha, haha.ArgumentError, ["no animation", "fixture"], lambda: avatar.sample_animation("run", 0))
 
 
+def test_mesh_coverage(haha, args):
+    """The fixture's coverage (0, 1, 0.3 for v % 3 = 0, 1, 2) within half an 8-bit step."""
+    avatar = haha.Avatar(os.path.join(args.work, "coverage.glb"))
+    c = avatar.mesh_coverage
+    want = np.array([0.0, 1.0, 0.3], np.float32)[np.arange(avatar.num_vertices) % 3]
+    check(c is not None and c.shape == (avatar.num_vertices,) and c.dtype == np.float32
+          and np.abs(c - want).max() <= 0.5 / 255 + 1e-7, "mesh_coverage per body vertex")
+    check(np.array_equal(c >= haha.MESH_COVERAGE_CUTOFF, want >= 0.5), "every vertex on its side of the cut")
+    check(haha.Avatar(os.path.join(args.work, "avatar.glb")).mesh_coverage is None, "a file without a coverage gives None")
+
+
 def expect_error(haha, cls, words, fn):
     try:
         fn()
@@ -227,6 +239,7 @@ def main():
     test_equals_c_sample(haha, args, glb, motion)
     test_errors(haha, args, glb)
     test_animation(haha, args, motion)
+    test_mesh_coverage(haha, args)
     print("PASS" if not failures else "FAILED: %d check(s)" % len(failures))
     return 1 if failures else 0
 

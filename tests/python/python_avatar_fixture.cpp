@@ -1,7 +1,8 @@
 // Writes the Python package test's inputs into OUTDIR: avatar.glb (a realistic-size avatar on
 // the full procedural SMPL-X-layout body, packed with the defaults: Draco mesh, JPEG texture,
 // embedded pose correctives), motion.npz (3 frames, the AMASS layout `haha motion` writes)
-// and animated.glb (a small avatar carrying that motion as the glTF animation "fixture").
+// animated.glb (a small avatar carrying that motion as the glTF animation "fixture") and
+// coverage.glb (a small avatar with a mesh coverage: vertex v has 0, 1, 0.3 for v % 3 = 0, 1, 2).
 //   python_avatar_fixture OUTDIR
 #include <cstdio>
 #include <exception>
@@ -12,6 +13,7 @@
 #include "io/motion.h"
 #include "io/npy.h"
 #include "support/format_realistic_avatar.h"
+#include "support/format_test_avatar.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {
@@ -39,6 +41,8 @@ int main(int argc, char** argv) {
     haha::PackOptions animated;
     animated.animations.push_back({"fixture", haha::read_motion((out / "motion.npz").string())});
     haha::write_avatar_glb(haha::test::make_realistic_avatar(500, 32), (out / "animated.glb").string(), animated);
+    haha::write_avatar_glb(haha::test::with_test_coverage(haha::test::make_realistic_avatar(500, 32)),
+                           (out / "coverage.glb").string(), haha::PackOptions{});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "python_avatar_fixture: %s\n", e.what());
     return 1;

@@ -177,7 +177,7 @@ TEST(RuntimeCApi, ExportsOnlyTheCApi) {
   for (const char* f : {"haha_version", "haha_version_string", "haha_last_error", "haha_status_string",
                         "haha_set_num_threads", "haha_avatar_load", "haha_avatar_load_memory", "haha_avatar_free",
                         "haha_avatar_get_info", "haha_avatar_faces", "haha_avatar_face_uvs", "haha_avatar_texture",
-                        "haha_posed_create", "haha_posed_free", "haha_repose", "haha_posed_vertices",
+                        "haha_avatar_mesh_coverage", "haha_posed_create", "haha_posed_free", "haha_repose", "haha_posed_vertices",
                         "haha_posed_normals", "haha_posed_joints", "haha_posed_gaussians", "haha_render",
                         "haha_motion_load", "haha_motion_load_for_avatar", "haha_motion_free", "haha_motion_info", "haha_motion_frame",
                         "haha_avatar_animation_count", "haha_avatar_animation_info", "haha_avatar_sample_animation",
@@ -261,6 +261,45 @@ TEST(RuntimeCApi, LoadsFromFileAndMemoryWithTheAvatarsCounts) {
   expect_failure(haha_avatar_texture(file.p, tex.data(), tex.size() - 1), HAHA_ERROR_ARGUMENT, {"haha_avatar_texture", "capacity"});
   expect_failure(haha_avatar_get_info(nullptr, nullptr), HAHA_ERROR_ARGUMENT, {"haha_avatar_get_info", "NULL"});
   expect_failure(haha_avatar_faces(file.p, nullptr, 100000), HAHA_ERROR_ARGUMENT, {"indices is NULL"});
+}
+
+// The mesh coverage per body vertex for engines that draw the mesh themselves: exact from a
+// lossless pack, within half an 8-bit step (and on the same side of the cut) from a lossy one;
+// 1 everywhere without one.
+TEST(RuntimeCApi, MeshCoverageForEnginesThatDrawTheMesh) {
+  const Avatar a = test::with_test_coverage(test::make_test_avatar(40));
+  const size_t V = size_t(a.body.num_verts);
+  PackOptions lossless;
+  lossless.lossless = true;
+  for (const PackOptions& o : {PackOptions{}, lossless}) {
+    const std::vector<uint8_t> bytes = pack_avatar(a, o);
+    AvatarHandle h;
+    ASSERT_EQ(haha_avatar_load_memory(bytes.data(), bytes.size(), "coverage.glb", nullptr, &h.p), HAHA_OK) << haha_last_error();
+    std::vector<float> c(V, -1.0f);
+    int32_t has = -1;
+    ASSERT_EQ(haha_avatar_mesh_coverage(h.p, c.data(), c.size(), &has), HAHA_OK) << haha_last_error();
+    EXPECT_EQ(has, 1);
+    for (size_t v = 0; v < V; ++v) {
+      if (o.lossless) ASSERT_EQ(c[v], a.mesh_coverage[v]) << v;
+      ASSERT_NEAR(c[v], a.mesh_coverage[v], 0.5f / 255.0f + 1e-7f) << v;
+      ASSERT_EQ(c[v] >= HAHA_MESH_COVERAGE_CUTOFF, a.mesh_coverage[v] >= HAHA_MESH_COVERAGE_CUTOFF) << v;
+    }
+    has = -1;
+    EXPECT_EQ(haha_avatar_mesh_coverage(h.p, nullptr, 0, &has), HAHA_OK);  // the flag alone
+    EXPECT_EQ(has, 1);
+    std::vector<float> small(V - 1, 7.0f);
+    expect_failure(haha_avatar_mesh_coverage(h.p, small.data(), small.size(), nullptr), HAHA_ERROR_ARGUMENT,
+                   {"haha_avatar_mesh_coverage", "capacity " + std::to_string(V - 1), std::to_string(V)});
+    for (float x : small) ASSERT_EQ(x, 7.0f);
+  }
+  AvatarHandle none;
+  none.p = load_ok(fx().lossless_path);
+  std::vector<float> c(size_t(fx().avatar.body.num_verts), -1.0f);
+  int32_t has = -1;
+  ASSERT_EQ(haha_avatar_mesh_coverage(none.p, c.data(), c.size(), &has), HAHA_OK);
+  EXPECT_EQ(has, 0);
+  for (float x : c) ASSERT_EQ(x, 1.0f);
+  expect_failure(haha_avatar_mesh_coverage(nullptr, c.data(), c.size(), &has), HAHA_ERROR_ARGUMENT, {"haha_avatar_mesh_coverage", "NULL"});
 }
 
 // haha_avatar_load_lod: a file with importance tiers loads the tiers that fit; a file

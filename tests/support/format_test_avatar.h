@@ -152,4 +152,12 @@ inline Avatar with_test_garment(Avatar a, int n = 5) {
   return a;
 }
 
+// The avatar with a mesh coverage on every body vertex (garment included, so attach one
+// first): vertices cycle through 0 (cut), 1 (drawn) and 0.3 (cut, off the 8-bit grid).
+inline Avatar with_test_coverage(Avatar a) {
+  a.mesh_coverage.resize(size_t(a.body.num_verts));
+  for (size_t v = 0; v < a.mesh_coverage.size(); ++v) a.mesh_coverage[v] = v % 3 == 0 ? 0.0f : v % 3 == 1 ? 1.0f : 0.3f;
+  return a;
+}
+
 }  // namespace haha::test

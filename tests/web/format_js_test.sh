@@ -7,7 +7,10 @@
 # (format/js/test/garment_reader_test.mjs; no training, no Chromium).
 # `js_spark_skinning`: a --khr-gaussian-splatting pack's skinned splats in Spark's SplatSkinning
 # against linear blend skinning and the exact reposing (format/js/test/spark_skinning_test.mjs).
-# Usage: format_js_test.sh three|babylon|reader|garment|spark HAHA WORKDIR [RUN_FROM]
+# `js_coverage`: the mesh coverage (COLOR_0 alpha, alphaMode MASK) of the fuzz corpus' seeds in
+# the reader, and the mesh cut with the Gaussians showing through in three.js and Babylon.js
+# (format/js/test/coverage_test.mjs; no training).
+# Usage: format_js_test.sh three|babylon|reader|garment|spark|coverage HAHA WORKDIR [RUN_FROM]
 #        format_js_test.sh fixture HAHA RUN_FROM   (CTest fixture js_avatar: trains the tiny
 #        avatar run once into RUN_FROM/run; the tests given RUN_FROM use it instead of training)
 # Exits 77 (CTest SKIP_RETURN_CODE) with the reason printed when node, Chromium or
@@ -25,8 +28,9 @@ case "$engine" in
   reader) script="$js/test/reader_test.mjs"; name=js_reader; need=(three fflate) ;;
   garment) script="$js/test/garment_reader_test.mjs"; name=js_garment_reader; need=(three fflate) ;;
   spark) script="$js/test/spark_skinning_test.mjs"; name=js_spark_skinning; need=(@sparkjsdev/spark three playwright-core pngjs fflate) ;;
+  coverage) script="$js/test/coverage_test.mjs"; name=js_coverage; need=(three babylonjs babylonjs-loaders playwright-core pngjs fflate) ;;
   fixture) script="$js/test/make_run.mjs"; name=js_avatar; need=() ;;
-  *) echo "format_js_test.sh: unknown engine '$engine' (three, babylon, reader, garment or spark)"; exit 2 ;;
+  *) echo "format_js_test.sh: unknown engine '$engine' (three, babylon, reader, garment, spark or coverage)"; exit 2 ;;
 esac
 chromium="${HAHA_CHROMIUM:-/usr/bin/chromium}"
 skip() { echo "SKIP $name: $*"; exit 77; }

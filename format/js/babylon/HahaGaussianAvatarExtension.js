@@ -58,6 +58,12 @@ export class HahaGaussianAvatarExtension {
       if (ext.splats && this.options.hideSplatPrimitive !== false && node(ext.splats.node)) node(ext.splats.node).setEnabled(false);
       const ibm = avatar.glb.readAccessor(gltf.skins[ext.body.skin].inverseBindMatrices, 16, 'skin.inverseBindMatrices').values;
       const layer = new HahaGaussianLayer(this.B, loader.babylonScene, avatar, joints, ibm, loader.rootBabylonMesh, node(ext.body.node));
+      // The mesh coverage (COLOR_0 alpha, alphaMode MASK): Babylon's KHR_draco_mesh_compression
+      // loads COLOR_0 but, unlike plain accessors, never marks a VEC4 one as carrying alpha, so
+      // the alpha test would keep the whole mesh.
+      if (avatar.meshCoverage) {
+        for (const m of layer.bodyParts) if (m.isVerticesDataPresent(this.B.VertexBuffer.ColorKind)) m.hasVertexAlpha = true;
+      }
       if (this.options.exactBody) layer.makeExactBody();
       const s = loader.babylonScene;
       s.metadata = s.metadata || {};
@@ -144,6 +150,10 @@ export class HahaGaussianLayer {
     material.depthFunction = B.Constants.LEQUAL;
     mesh.material = material;
     mesh.subMeshes[0].indexCount = 0;
+    // A draw range short of every splat (some culled off screen) makes the sub-mesh non-global:
+    // Babylon then sorts the transparent queue by the sub-mesh's own bounding info, which it
+    // never made (a TypeError on 'boundingSphere' in every frame).
+    mesh.subMeshes[0].setBoundingInfo(mesh.getBoundingInfo());
     this.mesh = mesh;
     this.material = material;
     this.visibleSplats = 0;
@@ -201,6 +211,10 @@ export class HahaGaussianLayer {
       mesh.setVerticesData(B.VertexBuffer.PositionKind, this._exactPositions.subarray(3 * at, 3 * (at + n)), true);
       const uv = part.getVerticesData(B.VertexBuffer.UVKind);
       if (uv) mesh.setVerticesData(B.VertexBuffer.UVKind, uv, false);
+      // The mesh coverage (COLOR_0 alpha), which the material's alpha test cuts by.
+      const color = part.getVerticesData(B.VertexBuffer.ColorKind);
+      if (color) mesh.setVerticesData(B.VertexBuffer.ColorKind, color, false, 4);
+      mesh.hasVertexAlpha = part.hasVertexAlpha;
       mesh.setIndices(part.getIndices(), n);
       mesh.material = part.material;
       for (const k of ['sideOrientation', 'overrideMaterialSideOrientation']) if (k in part) mesh[k] = part[k];  // the loader's winding rule

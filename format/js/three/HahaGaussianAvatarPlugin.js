@@ -213,7 +213,8 @@ export class HahaGaussianLayer extends THREE.Mesh {
       const n = sk.geometry.attributes.position.count;
       const g = new THREE.BufferGeometry();
       if (sk.geometry.index) g.setIndex(sk.geometry.index);
-      for (const k of ['uv', 'normal']) if (sk.geometry.attributes[k]) g.setAttribute(k, sk.geometry.attributes[k]);
+      // 'color': the mesh coverage (COLOR_0 alpha), which the material's alphaTest cuts by.
+      for (const k of ['uv', 'normal', 'color']) if (sk.geometry.attributes[k]) g.setAttribute(k, sk.geometry.attributes[k]);
       const pos = new THREE.BufferAttribute(this._exactPositions.array.subarray(3 * at, 3 * (at + n)), 3);
       pos.setUsage(THREE.DynamicDrawUsage);
       g.setAttribute('position', pos);

@@ -82,7 +82,10 @@ def build_body(name, avatar, vertices, weights, arm, collection):
     me.polygons.foreach_set("use_smooth", np.ones(len(faces), bool))
     tex = avatar.texture
     image = _texture_image(name + "_texture", tex) if tex is not None else None
-    me.materials.append(shading.body_material(name + "_material", image))
+    coverage = avatar.mesh_coverage  # per body vertex (the file's vertex order), or None
+    if coverage is not None:
+        me.attributes.new(shading.COVERAGE_ATTRIBUTE, "FLOAT", "POINT").data.foreach_set("value", coverage)
+    me.materials.append(shading.body_material(name + "_material", image, coverage is not None))
     obj = bpy.data.objects.new(name, me)
     obj.parent = arm
     collection.objects.link(obj)

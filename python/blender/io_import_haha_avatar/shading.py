@@ -2,7 +2,10 @@
 (importer.py sets it): colours are display values, written to the image unchanged, so
 transparent splats blend in display space as haha render's do.
 
-Body: emission of the texture read as Non-Color (its stored sRGB values). Gaussians: a quad
+Body: emission of the texture read as Non-Color (its stored sRGB values); with a mesh
+coverage (the point attribute haha_coverage, interpolated across each face) only where it is
+>= MESH_COVERAGE_CUTOFF, transparent elsewhere and clipped in EEVEE (no depth written there:
+the splats behind show), as haha render and every glTF viewer cut the mesh. Gaussians: a quad
 per splat (gaussian_nodes.py) emitting its colour with alpha = min(0.99, opacity
 exp(-b^2 / 2)), b the view ray's distance from the Gaussian's centre in standard deviations
 (in the Gaussian's own frame: the 3D Gaussian's footprint along that ray), none below 1/255
@@ -12,9 +15,12 @@ import bpy
 from .node_util import math, node, out, vmath
 
 ALPHA_MIN, ALPHA_MAX = 1.0 / 255.0, 0.99  # haha render's (libhaha/render/gaussian_kernels.h)
+COVERAGE_ATTRIBUTE = "haha_coverage"
+MESH_COVERAGE_CUTOFF = 0.5  # HAHA_MESH_COVERAGE_CUTOFF
 
 
-def body_material(name, image):
+def body_material(name, image, coverage=False):
+    """coverage: the mesh carries the point attribute haha_coverage (scene_build.build_body)."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     nt = mat.node_tree
@@ -24,7 +30,16 @@ def body_material(name, image):
         image.colorspace_settings.name = "Non-Color"  # display values in, display values out (Raw)
         tex = node(nt, "ShaderNodeTexImage", image=image, interpolation="Linear", extension="EXTEND")
         nt.links.new(out(tex, "Color"), emit.inputs["Color"])
-    node(nt, "ShaderNodeOutputMaterial", {"Surface": out(emit)})
+    surface = out(emit)
+    if coverage:
+        cov = out(node(nt, "ShaderNodeAttribute", attribute_name=COVERAGE_ATTRIBUTE, attribute_type="GEOMETRY"), "Fac")
+        keep = math(nt, "SUBTRACT", 1.0, math(nt, "LESS_THAN", cov, MESH_COVERAGE_CUTOFF))  # 1 where >= the cutoff
+        clear = node(nt, "ShaderNodeBsdfTransparent")
+        surface = out(node(nt, "ShaderNodeMixShader", {"Fac": keep, 1: out(clear), 2: surface}))
+        mat.blend_method = "CLIP"  # EEVEE: alpha 0 or 1, depth only where drawn
+        mat.alpha_threshold = 0.5
+        mat.shadow_method = "CLIP"
+    node(nt, "ShaderNodeOutputMaterial", {"Surface": surface})
     return mat
 
 

@@ -44,7 +44,8 @@
  * Threads:
  *   - haha_avatar and haha_motion are immutable after loading: any number of threads may
  *     use one at the same time, in every call that takes it as const: haha_avatar_get_info,
- *     haha_avatar_faces, haha_avatar_face_uvs, haha_avatar_texture, haha_posed_create,
+ *     haha_avatar_faces, haha_avatar_face_uvs, haha_avatar_texture,
+ *     haha_avatar_mesh_coverage, haha_posed_create,
  *     haha_motion_load_for_avatar, haha_motion_info, haha_motion_frame,
  *     haha_avatar_animation_count, haha_avatar_animation_info,
  *     haha_avatar_sample_animation; also while pose
@@ -182,6 +183,17 @@ HAHA_API haha_status haha_avatar_face_uvs(const haha_avatar* avatar, float* uvs,
  * capacity >= 3 * texture_width * texture_height bytes. */
 HAHA_API haha_status haha_avatar_texture(const haha_avatar* avatar, uint8_t* rgb, size_t capacity);
 
+/* The mesh's coverage (haha pack writes it as COLOR_0 alpha with alphaMode MASK): one value
+ * in [0, 1] per body vertex (V, the order of haha_avatar_faces). The textured mesh draws a
+ * point only where the perspective-correct barycentric interpolation of its face's three
+ * values is >= HAHA_MESH_COVERAGE_CUTOFF, so an engine that draws the mesh itself
+ * discards the other fragments (an alpha test), in its depth pass too: the Gaussians and
+ * the background show there. per_vertex (may be NULL: only the flag) gets V floats,
+ * capacity >= num_vertices; an avatar without a coverage gives 1 everywhere (the whole
+ * mesh draws). has_coverage (may be NULL): 1 when the file carries one, else 0. */
+#define HAHA_MESH_COVERAGE_CUTOFF 0.5f
+HAHA_API haha_status haha_avatar_mesh_coverage(const haha_avatar* avatar, float* per_vertex, size_t capacity,
+                                               int32_t* has_coverage);
 /* ---- Pose states ------------------------------------------------------------------- */
 
 /* A new pose state of `avatar` (which must outlive it), in no pose yet: call haha_repose

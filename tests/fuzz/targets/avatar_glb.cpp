@@ -17,7 +17,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
 // Small valid files: the default pack, lossless, webp, and (version 3) a plain mesh with
 // skinned splats, an edgebreaker mesh, a lossless pack of a displaced (clothed) body, and
-// (version 4) a body with a garment as the mesh's second primitive, Draco and plain. The
+// (version 4) a body with a garment as the mesh's second primitive, Draco and plain, and
+// that body with a mesh coverage (Draco, plain, lossless). The
 // corpus also keeps seeds of older versions written by earlier packers (seed0-4: version 2;
 // seed8: version 3, the garment inside primitive 0).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
@@ -39,4 +40,10 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   haha::fuzz::write_seed(dir, "seed9_v4_garment.glb", haha::pack_avatar(garment, lossy));
   plain.khr_gaussian_splatting = false;
   haha::fuzz::write_seed(dir, "seed10_v4_garment_plain.glb", haha::pack_avatar(garment, plain));
+  // A mesh coverage (COLOR_0 alpha, alphaMode MASK) on the garment avatar: Draco (8-bit),
+  // plain accessors, and lossless (float32 in the Draco stream).
+  const haha::Avatar covered = haha::test::with_test_coverage(garment);
+  haha::fuzz::write_seed(dir, "seed11_v4_coverage.glb", haha::pack_avatar(covered, lossy));
+  haha::fuzz::write_seed(dir, "seed12_v4_coverage_plain.glb", haha::pack_avatar(covered, plain));
+  haha::fuzz::write_seed(dir, "seed13_v4_coverage_lossless.glb", haha::pack_avatar(covered, lossless));
 }

@@ -16,7 +16,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   return 0;
 }
 
-// An avatar without and one with a rest displacement, on the fuzz body (4 rings x 5 segments).
+// An avatar without and one with a rest displacement, one with a garment and one with a mesh
+// coverage too, on the fuzz body (4 rings x 5 segments).
 void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   haha::Avatar a = haha::test::make_test_avatar(10, 2, 8, 8);
   const std::string p = (std::filesystem::temp_directory_path() / "haha-fuzz-seed.npz").string();
@@ -31,5 +32,10 @@ void haha_fuzz_write_seeds(const std::filesystem::path& dir) {
   a.body.rest_offsets.assign(small.v_template.size() + a.garment.verts.size(), 0.01f);
   haha::save_avatar_npz(a, p);
   haha::fuzz::write_seed(dir, "garment.npz", haha::fuzz::file_bytes(p));
+  // A mesh coverage on every vertex of the body with its garment.
+  a.mesh_coverage.resize(small.v_template.size() / 3 + a.garment.verts.size() / 3);
+  for (size_t v = 0; v < a.mesh_coverage.size(); ++v) a.mesh_coverage[v] = v % 3 == 0 ? 0.0f : v % 3 == 1 ? 1.0f : 0.3f;
+  haha::save_avatar_npz(a, p);
+  haha::fuzz::write_seed(dir, "coverage.npz", haha::fuzz::file_bytes(p));
   std::filesystem::remove(p);
 }

@@ -95,6 +95,9 @@ static class BindingChecks
             Expect(avatar.GetFaces().Max() < (uint)info.NumVertices, "faces index the vertices");
             Expect(avatar.GetFaceUvs().Length == 6 * info.NumFaces, "face UVs");
             Expect(avatar.GetTexture().Length == 3 * info.TextureWidth * info.TextureHeight, "texture");
+            // The sample avatar has no mesh coverage: 1 everywhere, the flag off.
+            Expect(!avatar.HasMeshCoverage && avatar.GetMeshCoverage().Length == info.NumVertices &&
+                   avatar.GetMeshCoverage().All(c => c == 1.0f), "mesh coverage");
             Expect(motion.NumFrames == asStored.NumFrames && motion.NumFrames >= 2 && motion.Fps > 0, "motion info");
 
             var pose = new float[HahaRuntime.NumPoseValues];
