@@ -108,7 +108,7 @@ class Viewer {
     this.bones = skinned.skeleton.bones;
     this.rootRest = this.bones[0].position.clone();
     this.texture = await textureOf(a);
-    const material = this.r.meshMaterialFor(this.texture);
+    const material = this.r.meshMaterialFor(this.texture, !!a.meshCoverage);
     for (const part of parts) {
       part.material = material;
       part.frustumCulled = false;
@@ -117,7 +117,9 @@ class Viewer {
 
     // Exact path: CPU LBS of the loader, written into the glTF vertices through BODY_VERTEX.
     this.positions = new Float32Array(3 * a.Vg);
-    this.exactMesh = this.r.createExactMesh(a.gltfFaces, a.uv, a.Vg, this.texture);
+    // The mesh coverage per glTF vertex (its body vertex's), for the exact pass's cut.
+    const coverage = a.meshCoverage ? Float32Array.from(a.bodyVertex, (b) => a.meshCoverage[b]) : null;
+    this.exactMesh = this.r.createExactMesh(a.gltfFaces, a.uv, a.Vg, this.texture, coverage);
     this.r.meshScene.add(gltf.scene, this.exactMesh);
     this.projector = new SplatProjector(a.N);
     this.loadMs = performance.now() - t0;

@@ -22,8 +22,14 @@ const MESH_VS = /* glsl */ `
 #include <skinning_pars_vertex>
 varying vec2 vUv;
 varying float vZ;
+varying float vCoverage;
 void main() {
   vUv = uv;
+#ifdef USE_COLOR_ALPHA
+  vCoverage = color.a;  // the mesh coverage (COLOR_0 alpha)
+#else
+  vCoverage = 1.0;
+#endif
   #include <skinbase_vertex>
   #include <begin_vertex>
   #include <skinning_vertex>
@@ -37,7 +43,9 @@ const MESH_FS = /* glsl */ `
 uniform highp sampler2D map;
 varying vec2 vUv;
 varying float vZ;
+varying float vCoverage;
 void main() {
+  if (vCoverage < 0.5) discard;  // the coverage cut (render/mesh_raster.h), glTF's MASK
   ivec2 size = textureSize(map, 0);
   float xmax = float(size.x - 1), ymax = float(size.y - 1);
   float x = clamp(vUv.x * float(size.x) - 0.5, 0.0, xmax);
@@ -67,7 +75,7 @@ precision highp int;
 precision highp sampler2D;
 precision highp isampler2D;
 uniform sampler2D posTex;   // posed glTF vertices (xyz)
-uniform sampler2D uvTex;    // glTF UVs (xy)
+uniform sampler2D uvTex;    // glTF UVs (xy), mesh coverage (z)
 uniform isampler2D faceTex; // faces (xyz = glTF vertex indices)
 uniform mat3 camR;          // OpenCV world -> camera
 uniform vec3 camT;
@@ -77,9 +85,9 @@ uniform vec2 nearFar;
 flat out vec3 c0;
 flat out vec3 c1;
 flat out vec3 c2;
-flat out vec2 t0;
-flat out vec2 t1;
-flat out vec2 t2;
+flat out vec3 t0;
+flat out vec3 t1;
+flat out vec3 t2;
 const float DILATE = 0.125;  // pixels
 ivec2 at(int i, int w) { return ivec2(i % w, i / w); }
 vec2 pixel(vec3 c) { return vec2(K.x * c.x / c.z + K.z, K.y * c.y / c.z + K.w); }
@@ -90,9 +98,9 @@ void main() {
   c0 = camR * texelFetch(posTex, at(idx.x, vw), 0).xyz + camT;
   c1 = camR * texelFetch(posTex, at(idx.y, vw), 0).xyz + camT;
   c2 = camR * texelFetch(posTex, at(idx.z, vw), 0).xyz + camT;
-  t0 = texelFetch(uvTex, at(idx.x, vw), 0).xy;
-  t1 = texelFetch(uvTex, at(idx.y, vw), 0).xy;
-  t2 = texelFetch(uvTex, at(idx.z, vw), 0).xy;
+  t0 = texelFetch(uvTex, at(idx.x, vw), 0).xyz;
+  t1 = texelFetch(uvTex, at(idx.y, vw), 0).xyz;
+  t2 = texelFetch(uvTex, at(idx.z, vw), 0).xyz;
   vec3 cur = corner == 0 ? c0 : (corner == 1 ? c1 : c2);
   if (min(c0.z, min(c1.z, c2.z)) > nearFar.x) {
     vec2 q0 = pixel(c0), q1 = pixel(c1), q2 = pixel(c2);
@@ -134,9 +142,9 @@ uniform vec2 nearFar;
 flat in vec3 c0;
 flat in vec3 c1;
 flat in vec3 c2;
-flat in vec2 t0;
-flat in vec2 t1;
-flat in vec2 t2;
+flat in vec3 t0;
+flat in vec3 t1;
+flat in vec3 t2;
 out vec4 fragColor;
 bool lexLessEqual(vec3 a, vec3 b) {
   if (a.x != b.x) return a.x < b.x;
@@ -162,8 +170,11 @@ void main() {
   if (!(den > 0.0)) discard;
   float z = det / den;
   if (!(z >= nearFar.x && z <= nearFar.y)) discard;
+  // The coverage cut: the interpolated coverage >= 0.5 (a face with every corner under it
+  // draws nothing, one with none under it draws whole, as the C++ setup decides).
+  if (E0 * (t0.z - 0.5) + E1 * (t1.z - 0.5) + E2 * (t2.z - 0.5) < 0.0) discard;
   float inv = 1.0 / (E0 + E1 + E2);
-  vec2 uv = (E0 * inv) * t0 + (E1 * inv) * t1 + (E2 * inv) * t2;
+  vec2 uv = (E0 * inv) * t0.xy + (E1 * inv) * t1.xy + (E2 * inv) * t2.xy;
   // render/texture.h bilinear_tap (glTF v = 1 - v_smplx: y = v H - 0.5)
   ivec2 size = textureSize(map, 0);
   float x = clamp(uv.x * float(size.x) - 0.5, 0.0, float(size.x - 1));
@@ -266,16 +277,18 @@ export class AvatarRenderer {
   }
 
   // A ShaderMaterial for the body: works on the CPU-skinned Mesh and on the glTF SkinnedMesh.
-  meshMaterialFor(texture) {
+  // With `coverage` the body's COLOR_0 alpha (the mesh coverage) cuts it.
+  meshMaterialFor(texture, coverage = false) {
     return new THREE.ShaderMaterial({
-      vertexShader: MESH_VS, fragmentShader: MESH_FS, uniforms: { map: { value: texture } },
+      vertexShader: MESH_VS, fragmentShader: MESH_FS, uniforms: { map: { value: texture } }, vertexColors: coverage,
       side: THREE.DoubleSide, depthFunc: THREE.LessDepth, blending: THREE.NoBlending,
     });
   }
 
   // The body mesh drawn by the exact pass: faces (F, 3) and uv (Vg, 2) as stored in the
-  // glTF; update(positions) uploads the posed glTF vertices (Vg, 3) each frame.
-  createExactMesh(faces, uv, numVerts, texture) {
+  // glTF, the mesh coverage (Vg) or null; update(positions) uploads the posed glTF vertices
+  // (Vg, 3) each frame.
+  createExactMesh(faces, uv, numVerts, texture, coverage = null) {
     const F = faces.length / 3, width = 1024;
     const tex2d = (count, data, format, type) => {
       const t = new THREE.DataTexture(data, width, Math.max(1, Math.ceil(count / width)), format, type);
@@ -288,7 +301,11 @@ export class AvatarRenderer {
     const faceData = new Int32Array(4 * rows(F));
     for (let f = 0; f < F; f++) faceData.set([faces[3 * f], faces[3 * f + 1], faces[3 * f + 2], 0], 4 * f);
     const uvData = new Float32Array(4 * rows(numVerts));
-    for (let v = 0; v < numVerts; v++) { uvData[4 * v] = uv[2 * v]; uvData[4 * v + 1] = uv[2 * v + 1]; }
+    for (let v = 0; v < numVerts; v++) {
+      uvData[4 * v] = uv[2 * v];
+      uvData[4 * v + 1] = uv[2 * v + 1];
+      uvData[4 * v + 2] = coverage ? coverage[v] : 1;
+    }
     const posData = new Float32Array(4 * rows(numVerts));
     const posTex = tex2d(numVerts, posData, THREE.RGBAFormat, THREE.FloatType);
     const material = new THREE.RawShaderMaterial({
