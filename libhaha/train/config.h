@@ -171,7 +171,8 @@ struct Stage2Config {
   int fill_iterations = 300;
   // After the stage: the mesh's coverage learned from the training mattes (train/mesh_coverage.h),
   // the mesh cut where it covers background in most of the frames that saw it; stage 3 and
-  // every reader merge with the cut mesh.
+  // every reader merge with the cut mesh. Off: on the suite's runs it cut under 0.5% of the
+  // vertices and moved nothing (docs/results.md, "The mesh's coverage learned").
   bool coverage = false;
 };
 
