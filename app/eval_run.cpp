@@ -119,7 +119,9 @@ EvalReport run_eval(const EvalRunOptions& o) {
   Dataset ds = read_dataset(data, LoadPixels::headers);
   const int resolution = scoring_resolution(ds, info.config, o.resolution);
   std::vector<TrainFrame> frames = dataset_frames(ds, split, resolution);
-  if (frames.empty()) fail(data, "no " + o.split + " frames");
+  if (frames.empty())
+    fail(data, "no " + o.split + " frames" +
+                   (split == Split::unseen ? std::string(" (write the dataset with haha synth --unseen)") : ""));
   if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
   if (!o.part.empty()) load_part_masks(ds, split, resolution, frames);
 
@@ -195,7 +197,8 @@ EvalReport run_eval(const EvalRunOptions& o) {
     }
     if (o.print_table) {
       const VariantEval& e = r.variants.back();
-      std::printf("  %-15s PSNR %.2f  SSIM %.4f  (%d Gaussians)", v.name.c_str(), e.psnr, e.ssim, e.num_gaussians);
+      std::printf("  %-15s PSNR %.2f  person %.2f  SSIM %.4f  (%d Gaussians)", v.name.c_str(), e.psnr,
+                  e.psnr_person, e.ssim, e.num_gaussians);
       if (!o.part.empty())
         std::printf("  %s PSNR %.2f, transmittance %.2f%%", o.part.c_str(), e.psnr_part, 100 * e.transmittance_part);
       std::printf("\n");

@@ -15,7 +15,7 @@ struct EvalRunOptions {
   std::string run_dir;
   std::string data_dir;              // empty: the run's dataset
   std::string out_dir;               // where the report files go; empty: the run directory
-  std::string split = "test";        // train | test
+  std::string split = "test";        // train | test | unseen (haha synth --unseen)
   std::string background = "black";  // black | white
   int tto_steps = -1;                // test-time pose optimisation steps; < 0: the run's
   int tto_resolution = -1;           // coarse side of test-time pose optimisation (0 = all at the scored size); < 0: the run's

@@ -78,9 +78,10 @@ void run_synth(const SynthRunOptions& a) {
     std::printf("%s: %d test frames in the poses of %s, %dx%d, f = %.1f px, %.2f s\n", a.out.c_str(), s.test_frames,
                 a.motion.c_str(), o.size, o.size, double(s.camera.fx), seconds());
   else
-    std::printf("%s: %d train + %d test frames, %dx%d, f = %.1f px, min test-train pose gap %.2f rad, %.2f s\n",
-                a.out.c_str(), s.train_frames, s.test_frames, o.size, o.size, double(s.camera.fx), s.min_pose_gap,
-                seconds());
+    std::printf("%s: %d train + %d test%s frames, %dx%d, f = %.1f px, min test-train pose gap %.2f rad, %.2f s\n",
+                a.out.c_str(), s.train_frames, s.test_frames,
+                s.unseen_frames > 0 ? (" + " + std::to_string(s.unseen_frames) + " unseen").c_str() : "", o.size,
+                o.size, double(s.camera.fx), s.min_pose_gap, seconds());
 }
 
 }  // namespace haha

@@ -18,7 +18,8 @@ HAHA_COMMAND(eval) {
   sub->add_option("--run", r.run_dir, "run directory (haha train --out)")->required();
   sub->add_option("--data", r.data_dir, "dataset directory (default: the run's)");
   sub->add_option("--out", r.out_dir, "folder for report.json, report.md and eval_sheet.png (default: the run directory)");
-  sub->add_option("--split", r.split, "train or test")->capture_default_str();
+  sub->add_option("--split", r.split,
+                  "train, test or unseen (the views the turn never showed: haha synth --unseen)")->capture_default_str();
   sub->add_option("--background", r.background, "black or white")->capture_default_str();
   sub->add_option("--tto-steps", r.tto_steps,
                   "test-time pose optimisation steps (default: the run's eval.tto_steps; 0 = off)");

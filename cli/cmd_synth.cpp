@@ -40,6 +40,11 @@ HAHA_COMMAND(synth) {
   sub->add_flag("--still-arms", a->synth.still_arms,
                 "hold the arms in one A-pose over the turn (as PeopleSnapshot-style captures do) instead of swinging them")
       ->excludes(mo);
+  sub->add_flag("--unseen", a->synth.unseen,
+                "also render 3 views the turn never shows, split \"unseen\" with exact fits and their own cameras: "
+                "from below the chin looking up, from above the head looking down, the arms raised seen from the "
+                "front (scored by haha eval --split unseen, never trained on)")
+      ->excludes(mo);
   sub->add_option("--seed", a->synth.seed, "subject colours, motion details, fit noise, procedural body")
       ->capture_default_str();
   sub->add_option("--fit-noise", a->fit_noise,

@@ -26,12 +26,20 @@ using ojson = nlohmann::ordered_json;
 constexpr int kDatasetVersion = 1;
 constexpr const char* kDatasetFormat = "haha-dataset";
 
-const char* split_name(Split s) { return s == Split::train ? "train" : "test"; }
+const char* split_name(Split s) {
+  switch (s) {
+    case Split::train: return "train";
+    case Split::test: return "test";
+    case Split::unseen: return "unseen";
+  }
+  return "?";
+}
 
 Split parse_split(const std::string& s, const std::string& where) {
   if (s == "train") return Split::train;
   if (s == "test") return Split::test;
-  fail(where, "split '" + s + "' is neither \"train\" nor \"test\"");
+  if (s == "unseen") return Split::unseen;
+  fail(where, "split '" + s + "' is not \"train\", \"test\" or \"unseen\"");
 }
 
 const char* fits_name(Fits f) {

@@ -27,7 +27,7 @@
 //    "camera": {"K": [[fx,0,cx],[0,fy,cy],[0,0,1]], "world_to_camera": 4x4, "near": n, "far": f},
 //    "smplx": "smplx/params.npz", "smplx_true": "smplx/params_true.npz",   (the latter optional)
 //    "frames": [{"image": "images/000000.png", "mask": "masks/000000.png",
-//                "split": "train" | "test", "source_index": 17,              (optional)
+//                "split": "train" | "test" | "unseen", "source_index": 17,   (optional)
 //                "camera": {...}}, ...]}                       (per frame, when not static)
 // The top-level "camera" applies to every frame without its own. Cameras follow
 // core/camera.h: OpenCV axes, world-to-camera extrinsics, pixel (i, j) covers
@@ -53,9 +53,12 @@
 
 namespace haha {
 
-enum class Split { train, test };
+// train: the frames `haha train` learns from; test: held-out frames (novel poses);
+// unseen: views the training video never showed (`haha synth --unseen`: from below the chin,
+// from above the head, arms raised), scored by `haha eval --split unseen`, never trained on.
+enum class Split { train, test, unseen };
 const char* split_name(Split s);
-Split parse_split(const std::string& s, const std::string& where);  // "train" | "test"
+Split parse_split(const std::string& s, const std::string& where);  // "train" | "test" | "unseen"
 
 // "fits" of dataset.json: how close the SMPL-X fits are to the person in the images.
 // `haha train` picks the settings for estimated fits by it (train/config.h, key `fits`).

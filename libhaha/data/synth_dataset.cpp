@@ -68,6 +68,7 @@ SynthSummary write_scene(const std::string& dir, const BodyModel& body, const Sy
   sum.camera = scene.camera;
   sum.train_frames = opt.train_frames;
   sum.test_frames = opt.test_frames;
+  sum.unseen_frames = int(scene.unseen_cameras.size());
   sum.texture_size = scene.texture_size;
   sum.min_pose_gap = scene.min_pose_gap;
   say("motion and camera: f = " + std::to_string(sum.camera.fx) + " px");
@@ -94,11 +95,11 @@ SynthSummary write_scene(const std::string& dir, const BodyModel& body, const Sy
   std::vector<ContactSheetTile> tiles;
   const int N = int(scene.truth.size());
   auto add_frame = [&](int i, const Image& rgb, const Image& mask, const Image* garment) {
-    const bool train = i < opt.train_frames;
-    const int local = train ? i : i - opt.train_frames;
+    const bool train = i < opt.train_frames, unseen = i >= scene.first_unseen();
+    const int local = train ? i : unseen ? i - scene.first_unseen() : i - opt.train_frames;
     DatasetFrame f;
-    f.split = train ? Split::train : Split::test;
-    f.camera = sum.camera;
+    f.split = train ? Split::train : unseen ? Split::unseen : Split::test;
+    f.camera = scene.frame_camera(i);
     f.params = scene.fits[i];
     f.source_index = local;
     // Named as the writer names the frame's image and mask (its i-th frame).
@@ -107,11 +108,12 @@ SynthSummary write_scene(const std::string& dir, const BodyModel& body, const Sy
     writer.add(f, rgb, mask, &scene.truth[i]);
     if (garment) write_image((parts / name).string(), *garment);
     const auto& pick = train ? sheet_train : sheet_test;
-    if (std::find(pick.begin(), pick.end(), local) != pick.end()) {
+    if (unseen || std::find(pick.begin(), pick.end(), local) != pick.end()) {  // every unseen view
       ContactSheetTile t;
       t.image = opt.size > 128 ? resize_area(rgb, 128, 128) : rgb;
-      t.label = std::string(train ? "train " : "test ") + std::to_string(local);
-      t.new_row = !train && local == sheet_test.front();
+      t.label = unseen ? std::string(synth_unseen_view_name(local))
+                       : std::string(train ? "train " : "test ") + std::to_string(local);
+      t.new_row = (unseen && local == 0) || (!train && !unseen && local == sheet_test.front());
       tiles.push_back(std::move(t));
     }
     if (N >= 10 && (i + 1) % (N / 10) == 0) say("rendered " + std::to_string(i + 1) + " / " + std::to_string(N));
@@ -161,10 +163,11 @@ SynthSummary write_synth_dataset(const std::string& dir_in, const BodyModel& bod
   const std::string dir = checked_out_dir(dir_in);
   const SynthScene scene = make_synth_scene(body, opt);
   SceneWrite w;
-  w.source = subject_source(opt, scene.view_shading) + (opt.still_arms ? ", arms still" : "");
+  w.source = subject_source(opt, scene.view_shading) + (opt.still_arms ? ", arms still" : "") +
+             (opt.unseen ? ", unseen views (below chin, above head, arms raised)" : "");
   w.title = std::string(opt.subject == 1 ? "HAHA SYNTH" : "HAHA SYNTH SUBJECT 2") + ": SEED " + std::to_string(opt.seed) +
             ", " + std::to_string(opt.size) + " PX, " + std::to_string(opt.train_frames) + " TRAIN (TURNING) + " +
-            std::to_string(opt.test_frames) + " TEST (NOVEL POSES)";
+            std::to_string(opt.test_frames) + " TEST (NOVEL POSES)" + (opt.unseen ? " + UNSEEN VIEWS" : "");
   w.save_body = save_body;
   w.part_masks = part_masks;
   return write_scene(dir, body, scene, w, logger(log));

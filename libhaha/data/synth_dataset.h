@@ -16,7 +16,7 @@ BodyModel synth_body(const std::string& path, BodyResolution resolution, uint64_
 
 struct SynthSummary {
   Camera camera;
-  int train_frames = 0, test_frames = 0;
+  int train_frames = 0, test_frames = 0, unseen_frames = 0;
   int texture_size = 0;
   double min_pose_gap = 0;  // measured min over (test, train) pairs of pose_distance
 };
@@ -30,7 +30,9 @@ constexpr const char* kSynthPartMaskDir = "part_masks";
 // Renders the whole dataset into `dir` through DatasetWriter, plus dir/contact_sheet.png,
 // dir/synth_texture.png (the body atlas: what an ideal learned texture holds), when
 // `save_body` is set dir/body_model.npz (the body used) and when `part_masks` is set the
-// part masks (above). All of it is assembled beside `dir` and moved into place at the end:
+// part masks (above). With opt.unseen the unseen views (synth_subject.h SynthUnseenView) come
+// last, split "unseen", each with its own camera (dataset.json then has per-frame cameras),
+// and a row of their own on the contact sheet. All of it is assembled beside `dir` and moved into place at the end:
 // a failure leaves `dir` untouched. An existing `dir` is replaced only if it is empty or
 // holds a dataset.json. `log` (may be null) receives progress lines.
 SynthSummary write_synth_dataset(const std::string& dir, const BodyModel& body, const SynthOptions& opt,

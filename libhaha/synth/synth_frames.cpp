@@ -58,6 +58,19 @@ Camera scene_camera(const BodyModel& body, const SynthScene& sc) {
   return synth_camera(SynthRenderer(body, sc.subject), all, sc.options.size, sc.options.camera_distance);
 }
 
+// The unseen views (synth_subject.h SynthUnseenView): their poses appended to the truth,
+// each with its own camera at the scene camera's distance.
+void add_unseen_views(const BodyModel& body, SynthScene& sc) {
+  const std::vector<SmplxParams> poses = make_synth_unseen_poses(body, sc.subject);
+  SynthRenderer renderer(body, sc.subject);
+  const double d = sc.options.camera_distance;
+  for (int v = 0; v < kSynthUnseenViews; ++v) {
+    const double elevation = v == kUnseenBelow ? kUnseenBelowElevation : v == kUnseenAbove ? kUnseenAboveElevation : 0.0;
+    sc.unseen_cameras.push_back(synth_view_camera(renderer, poses[size_t(v)], sc.options.size, d, elevation));
+  }
+  sc.truth.insert(sc.truth.end(), poses.begin(), poses.end());
+}
+
 }  // namespace
 
 SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
@@ -66,8 +79,10 @@ SynthScene make_synth_scene(const BodyModel& body, const SynthOptions& opt) {
   const SynthMotion motion = make_synth_motion(body, sc.subject, opt.train_frames, opt.test_frames, opt.seed, opt.still_arms);
   sc.truth = motion.train;
   sc.truth.insert(sc.truth.end(), motion.test.begin(), motion.test.end());
+  sc.camera = scene_camera(body, sc);  // framed on the turn and the test poses only
+  if (opt.unseen) add_unseen_views(body, sc);
+  // The unseen frames come last, so the turn's and the test frames' noise is as without them.
   sc.fits = perturb_fits(sc.truth, opt.fit_noise, opt.seed);
-  sc.camera = scene_camera(body, sc);
   sc.min_pose_gap = motion.test.empty() ? 0 : 1e30;
   for (const SmplxParams& a : motion.test)
     for (const SmplxParams& b : motion.train) sc.min_pose_gap = std::min(sc.min_pose_gap, pose_distance(a, b));
@@ -80,6 +95,7 @@ SynthScene make_synth_subject_scene(const BodyModel& body, const SynthOptions& o
   opt.test_frames = 0;
   validate_synth_options(opt);
   opt.train_frames = 0;
+  opt.unseen = false;          // the motion's frames only
   opt.fit_noise = FitNoise{};  // the motion's poses are the truth
   return scene_subject(body, opt);
 }
@@ -120,11 +136,11 @@ void render_synth_frames(const BodyModel& body, const SynthScene& scene, bool ga
     const int n = std::min(batch, N - b0);
     if (by_frame) {
       parallel_for_dynamic(n, [&](int64_t k) {
-        pool[size_t(thread_index())].render(scene.camera, scene.truth[b0 + k], opt.supersample, kSynthAll, rgbs[k],
-                                            masks[k], garment(k));
+        pool[size_t(thread_index())].render(scene.frame_camera(b0 + int(k)), scene.truth[b0 + k], opt.supersample,
+                                            kSynthAll, rgbs[k], masks[k], garment(k));
       });
     } else {
-      renderer.render(scene.camera, scene.truth[b0], opt.supersample, kSynthAll, rgbs[0], masks[0], garment(0));
+      renderer.render(scene.frame_camera(b0), scene.truth[b0], opt.supersample, kSynthAll, rgbs[0], masks[0], garment(0));
     }
     for (int k = 0; k < n; ++k) sink(b0 + k, rgbs[size_t(k)], masks[size_t(k)], garment(k));
   }

@@ -1,5 +1,6 @@
 // Motions of the synthetic subject: a turning-in-place training sequence and a test
-// sequence of novel poses, grounded on the rest floor; pose distance; fit noise.
+// sequence of novel poses, grounded on the rest floor; the unseen views' poses; pose
+// distance; fit noise.
 //
 // Rotations are written in the rest (T-pose) frame, as SMPL-X local rotations are: the
 // arms lie along +-X palms down, legs along -Y, the body faces +Z. Handy facts:
@@ -196,6 +197,45 @@ SynthMotion make_synth_motion(const BodyModel& body, const SynthSubject& subject
   for (SmplxParams& p : out.test) all.push_back(&p);
   std::vector<std::vector<float>> scratch(size_t(std::max(1, num_threads())), std::vector<float>(size_t(body.num_verts) * 3));
   parallel_for_dynamic(int64_t(all.size()), [&](int64_t i) { ground(lbs, scratch[size_t(thread_index())], floor_y, *all[i]); });
+  return out;
+}
+
+const char* synth_unseen_view_name(int view) {
+  switch (view) {
+    case kUnseenBelow: return "below chin";
+    case kUnseenAbove: return "above head";
+    case kUnseenArmsUp: return "arms raised";
+    default: return "?";
+  }
+}
+
+std::vector<SmplxParams> make_synth_unseen_poses(const BodyModel& body, const SynthSubject& subject) {
+  if (subject.rest_joints.size() != size_t(kNumJoints) * 3) fail("synth unseen views", "subject has no rest joints");
+  const HandAxes axes = hand_axes(subject.rest_joints);
+  double floor_y = 1e30;
+  for (size_t i = 1; i < subject.rest_verts.size(); i += 3) floor_y = std::min(floor_y, double(subject.rest_verts[i]));
+  const Lbs<float> lbs(body);
+  std::vector<float> scratch(size_t(body.num_verts) * 3);
+  std::vector<SmplxParams> out;
+  for (int view = 0; view < kSynthUnseenViews; ++view) {
+    SmplxParams p = blank(subject, body);  // facing the camera (+Z)
+    const bool up = view == kUnseenArmsUp;
+    // Below / above: the turn's mean arms (53 to 78 degrees below the T-pose), so only the
+    // view is new. Arms up: 69 degrees above the T-pose, a pose the turn never holds, which
+    // shows the armpits and the arms' undersides.
+    const double lift = up ? 1.2 : -1.15, elbow = up ? 0.25 : 0.42;
+    set_joint(p, 16, Rz(lift));
+    set_joint(p, 17, Rz(-lift));
+    set_joint(p, 18, Ry(-elbow));
+    set_joint(p, 19, Ry(elbow));
+    set_joint(p, 4, Rx(0.05));
+    set_joint(p, 5, Rx(0.05));
+    const HandShape open{{0.1, 0.1, 0.1, 0.1, 0.1}, 0.6}, relaxed{{0.5, 0.5, 0.5, 0.5, 0.3}, 0.0};
+    set_hand(p, axes, 0, up ? open : relaxed);
+    set_hand(p, axes, 1, up ? open : relaxed);
+    ground(lbs, scratch, floor_y, p);
+    out.push_back(p);
+  }
   return out;
 }
 

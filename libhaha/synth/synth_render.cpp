@@ -248,4 +248,36 @@ Camera synth_camera(const SynthRenderer& renderer, const std::vector<const Smplx
   return cam;
 }
 
+Camera synth_view_camera(SynthRenderer& renderer, const SmplxParams& frame, int size, double distance,
+                         double elevation, double fill) {
+  if (size < 1 || !(distance > 0) || !(fill > 0 && fill <= 1) || !(std::abs(elevation) < 1.5))
+    fail("synth camera", "bad size, distance, elevation or fill");
+  std::vector<float> v;
+  renderer.pose(frame, kSynthAll, v);
+  double lo[3] = {1e30, 1e30, 1e30}, hi[3] = {-1e30, -1e30, -1e30};
+  for (size_t k = 0; k < v.size(); ++k)
+    lo[k % 3] = std::min(lo[k % 3], double(v[k])), hi[k % 3] = std::max(hi[k % 3], double(v[k]));
+  // Rows of R are the camera's axes in world terms (OpenCV): x = +X, z = the view direction,
+  // y = z x x (down in the image); at elevation 0 this is synth_camera's rotation.
+  const double se = std::sin(elevation), ce = std::cos(elevation);
+  const Vec3f x(1, 0, 0), z(0, float(-se), float(-ce)), y(0, float(-ce), float(se));
+  Camera cam;
+  cam.width = cam.height = size;
+  for (int c = 0; c < 3; ++c) cam.R.a[0][c] = x[c], cam.R.a[1][c] = y[c], cam.R.a[2][c] = z[c];
+  const Vec3f C(float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[1] + hi[1]) + distance * se),
+                float(0.5 * (lo[2] + hi[2]) + distance * ce));
+  cam.t = -(cam.R * C);
+  double extent = 1e-9;
+  for (size_t k = 0; k < v.size(); k += 3) {
+    const Vec3f xc = cam.to_camera(Vec3f(v[k], v[k + 1], v[k + 2]));
+    if (!(xc.z > 0.1f)) fail("synth camera", "subject reaches behind the camera: increase the distance");
+    extent = std::max({extent, std::abs(double(xc.x) / xc.z), std::abs(double(xc.y) / xc.z)});
+  }
+  cam.fx = cam.fy = float(fill * 0.5 * size / extent);
+  cam.cx = cam.cy = 0.5f * size;
+  cam.near_plane = 0.05f;
+  cam.far_plane = float(distance * 4 + 10);
+  return cam;
+}
+
 }  // namespace haha

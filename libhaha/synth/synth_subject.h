@@ -192,6 +192,25 @@ class SynthRenderer {
 Camera synth_camera(const SynthRenderer& renderer, const std::vector<const SmplxParams*>& frames, int size,
                     double distance = 2.8, double fill = 0.9);
 
+// A camera that looks at one frame's posed subject (all parts) from `distance` metres off the
+// centre of its bounding box, raised by `elevation` radians above the horizontal on the +Z
+// side (> 0: above, looking down; < 0: below, looking up; 0: synth_camera's level view),
+// image x along world +X, principal point at the centre, focal length such that every vertex
+// projects inside the central `fill` fraction. Throws haha::Error when a vertex lies behind
+// the camera.
+Camera synth_view_camera(SynthRenderer& renderer, const SmplxParams& frame, int size, double distance,
+                         double elevation, double fill = 0.9);
+
+// Views a turn in place never shows (`haha synth --unseen`), one frame each, in this order:
+// from below the chin looking up, from above the head looking down (both in a standing pose
+// facing the camera, arms down), and the arms raised above the shoulders seen from the front.
+enum SynthUnseenView : int { kUnseenBelow, kUnseenAbove, kUnseenArmsUp, kSynthUnseenViews };
+const char* synth_unseen_view_name(int view);  // "below chin", "above head", "arms raised"
+// Elevation (radians) of the below and above views' cameras.
+constexpr double kUnseenBelowElevation = -0.8, kUnseenAboveElevation = 0.9;
+// The true parameters of the kSynthUnseenViews frames, grounded as the turn's frames are.
+std::vector<SmplxParams> make_synth_unseen_poses(const BodyModel& body, const SynthSubject& subject);
+
 // ---------------------------------------------------------------------------------------
 // The frames of `haha synth`, in memory (data/synth_dataset.h writes them as a dataset).
 
@@ -208,6 +227,7 @@ struct SynthOptions {
   int subject = 1;            // SynthSubjectOptions::subject
   double view_shading = -1;   // strength; < 0: the subject's default (0 for 1, 0.5 for 2)
   bool still_arms = false;    // make_synth_motion's still_arms
+  bool unseen = false;        // also the kSynthUnseenViews frames (split unseen, own cameras)
 };
 
 // The view-shading strength a subject gets when none is given.
@@ -218,7 +238,8 @@ double default_view_shading(int subject);
 void validate_synth_options(const SynthOptions& opt);
 
 // What the frames are rendered from: frame i < options.train_frames is training frame i
-// (the turn), the rest are the test frames (novel poses).
+// (the turn), then options.test_frames test frames (novel poses), then the unseen views
+// (one per unseen_cameras entry, SynthUnseenView order).
 struct SynthScene {
   SynthOptions options;
   SynthSubject subject;
@@ -226,7 +247,12 @@ struct SynthScene {
   double view_shading = 0;         // the strength in use
   std::vector<SmplxParams> truth;  // true parameters per frame (the dataset's params_true)
   std::vector<SmplxParams> fits;   // truth with the options' fit noise (the dataset's params)
-  Camera camera;                   // static, options.size square
+  Camera camera;                   // static, options.size square: the train and test frames'
+  std::vector<Camera> unseen_cameras;  // the unseen views' (empty without options.unseen)
+  int first_unseen() const { return options.train_frames + options.test_frames; }
+  const Camera& frame_camera(int i) const {
+    return i >= first_unseen() ? unseen_cameras.at(size_t(i - first_unseen())) : camera;
+  }
   double min_pose_gap = 0;  // measured min over (test, train) pairs of pose_distance (0: no test frames)
 };
 

@@ -51,6 +51,15 @@ int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
 
 namespace {
 
+// 0/1 weights of the person's pixels: the ground-truth matte above one half (a soft edge
+// counts where it is mostly person; the black background, which every variant gets right,
+// does not dilute the score).
+std::vector<float> person_pixels(const std::vector<float>& mask, int P) {
+  std::vector<float> w(size_t(P), 0.0f);
+  for (size_t q = 0; q < w.size() && q < mask.size(); ++q) w[q] = mask[q] > 0.5f ? 1.0f : 0.0f;
+  return w;
+}
+
 // Mean of (1 - A)(1 - mesh coverage) weighted by `part` (P): how much background shows
 // through the rendered avatar there. NaN when the part has no weight.
 double part_transmittance(const AvatarRenderBuffers& buf, const float* part, int P) {
@@ -267,6 +276,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
     fe.ssim = ssim_metric(buf.image.data(), gt.data(), H, W);
     const std::vector<float> band = outline_band(f.mask.data(), H, W, kOutlineBandPx);
     fe.psnr_outline = psnr(buf.image.data(), gt.data(), H, W, band.data());  // NaN without an outline
+    fe.psnr_person = psnr(buf.image.data(), gt.data(), H, W, person_pixels(f.mask, P).data());  // NaN: no person
     if (f.part.size() == size_t(P)) {
       fe.psnr_part = psnr(buf.image.data(), gt.data(), H, W, f.part.data());
       fe.transmittance_part = part_transmittance(buf, f.part.data(), P);
@@ -293,10 +303,11 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   const double n = double(out.frames.size());
   out.psnr = out.ssim = out.render_ms = 0;
-  double lp = 0, outline = 0, part = 0, daylight = 0;
-  int with_outline = 0, with_part = 0;
+  double lp = 0, outline = 0, part = 0, daylight = 0, person = 0;
+  int with_outline = 0, with_part = 0, with_person = 0;
   for (const FrameEval& fe : out.frames) {
     if (!std::isnan(fe.psnr_outline)) outline += fe.psnr_outline, ++with_outline;  // NaN: no outline
+    if (!std::isnan(fe.psnr_person)) person += fe.psnr_person, ++with_person;
     if (!std::isnan(fe.psnr_part)) part += fe.psnr_part, daylight += fe.transmittance_part, ++with_part;
     out.psnr += fe.psnr / n;
     out.ssim += fe.ssim / n;
@@ -305,6 +316,7 @@ VariantEval evaluate_variant(const EvalVariant& v, const std::vector<TrainFrame>
   }
   out.lpips = opt.lpips ? lp : -1;
   out.psnr_outline = with_outline > 0 ? outline / with_outline : std::nan("");
+  out.psnr_person = with_person > 0 ? person / with_person : std::nan("");
   out.psnr_part = with_part > 0 ? part / with_part : std::nan("");
   out.transmittance_part = with_part > 0 ? daylight / with_part : std::nan("");
   return out;

@@ -1,6 +1,7 @@
 // Evaluation of trained avatars on held-out frames (docs/method.md section 4): test-time pose
 // optimisation with the avatar frozen, then PSNR / SSIM (/ LPIPS-Alex) over full frames on
-// a fixed background, PSNR in a band around the person's outline (train/outline_band.h), Gaussian counts, storage and render time, for the paper's stage
+// a fixed background, PSNR over the person's pixels and in a band around the person's
+// outline (train/outline_band.h), Gaussian counts, storage and render time, for the paper's stage
 // table: textured mesh only / full Gaussians / naive merge / HAHA filtered. No file I/O
 // (the data layer writes the report and the contact sheet).
 #pragma once
@@ -74,6 +75,7 @@ constexpr int kOutlineBandPx = 3;
 struct FrameEval {
   double psnr = 0, ssim = 0, lpips = -1;  // lpips < 0: unavailable
   double psnr_outline = 0;                // PSNR within kOutlineBandPx of the person's outline
+  double psnr_person = 0;                 // PSNR over the person's pixels: ground-truth mask > 0.5 (NaN: none)
   double psnr_part = std::nan("");        // PSNR weighted by TrainFrame::part (NaN: none, or empty)
   // Mean transmittance of the render (1 - A)(1 - mesh coverage) weighted by the part: the
   // daylight through it (a garment between the legs; NaN: no part)
@@ -92,6 +94,7 @@ struct VariantEval {
   int64_t storage_bytes = 0;
   double psnr = 0, ssim = 0, lpips = -1, render_ms = 0;  // means over frames
   double psnr_outline = 0;  // mean over the frames that have an outline (NaN: none has)
+  double psnr_person = 0;   // mean over the frames that have person pixels (NaN: none has)
   double psnr_part = 0;     // mean over the frames whose part has pixels (NaN: none has)
   double transmittance_part = 0;  // the same frames' mean transmittance over the part
   std::vector<FrameEval> frames;

@@ -115,6 +115,21 @@ TEST(EvalReport, APartsPsnrIsReportedOnlyWhenAsked) {
   EXPECT_DOUBLE_EQ(nlohmann::json::parse(eval_report_json(r))["variants"][3]["transmittance_part"].get<double>(), 0.005);
 }
 
+TEST(EvalReport, ThePersonsPsnrIsAColumnOfEveryRow) {
+  EvalReport r = make_report(1000, 300, 25.0, 28.0, 27.8);
+  r.variants[0].psnr_person = 19.25;
+  r.variants[0].frames[1].psnr_person = 18.5;
+  r.variants[2].psnr_person = std::nan("");  // no frame had person pixels
+  const auto j = nlohmann::json::parse(eval_report_json(r));
+  EXPECT_DOUBLE_EQ(j["variants"][0]["psnr_person"].get<double>(), 19.25);
+  EXPECT_DOUBLE_EQ(j["variants"][0]["frames"][1]["psnr_person"].get<double>(), 18.5);
+  EXPECT_TRUE(j["variants"][2]["psnr_person"].is_null());
+  const std::string md = eval_report_markdown(r);
+  EXPECT_NE(md.find("| PSNR | person PSNR | outline PSNR |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| mesh only | 0 | 0.000 | 25.00 | 19.25 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| naive merge | 1000 | 0.000 | 27.70 | n/a |"), std::string::npos) << md;
+}
+
 class EvalReportFiles : public testutil::TempDirTest {};
 
 TEST_F(EvalReportFiles, WritesReportAndSheet) {

@@ -108,6 +108,23 @@ TEST_F(DatasetTest, RoundTripPerFrameCamerasAndTrueParams) {
   EXPECT_TRUE(fs::is_regular_file(path("ds/smplx/params_true.npz")));
 }
 
+// The third split (`haha synth --unseen`): written and read as the others, kept apart from
+// the training and test frames; a dataset without it reads as before (RoundTripStaticCamera).
+TEST_F(DatasetTest, UnseenSplitRoundTripsAndStaysApart) {
+  Dataset ds = small_dataset(5, true, true);
+  ds.frames[1].split = ds.frames[4].split = Split::unseen;
+  ds.frames[3].split = Split::test;
+  write_dataset(ds, path("ds"));
+  const Dataset back = read_dataset(path("ds"));
+  expect_same_dataset(ds, back);
+  EXPECT_EQ(back.indices(Split::train), (std::vector<int>{0, 2}));
+  EXPECT_EQ(back.indices(Split::test), (std::vector<int>{3}));
+  EXPECT_EQ(back.indices(Split::unseen), (std::vector<int>{1, 4}));
+  EXPECT_NE(read_text(path("ds/dataset.json")).find("\"split\":\"unseen\""), std::string::npos);
+  for (Split s : {Split::train, Split::test, Split::unseen}) EXPECT_EQ(parse_split(split_name(s), "x"), s);
+  expect_error([] { parse_split("validation", "--split"); }, {"--split", "'validation'", "unseen"});
+}
+
 TEST_F(DatasetTest, PremultipliedFlagRoundTripsAndIsAbsentWhenUnknown) {
   for (int flag : {-1, 0, 1}) {
     Dataset ds = small_dataset(2);

@@ -11,6 +11,7 @@
 #include <iterator>
 #include <string>
 
+#include "body/lbs.h"
 #include "core/error.h"
 #include "core/parallel.h"
 #include "data/dataset.h"
@@ -104,6 +105,73 @@ TEST_F(SynthDataset, ReadsBackWithMatchingCountsAndConsistentMasks) {
   EXPECT_GT(sheet.width, 6 * 48);
   // Nothing left beside the output.
   for (const auto& e : fs::directory_iterator(dir_)) EXPECT_EQ(e.path().filename(), "ds");
+}
+
+// World position of a camera's centre and its view direction.
+Vec3f camera_centre(const Camera& c) { return -1.0f * (transpose(c.R) * c.t); }
+Vec3f view_direction(const Camera& c) { return c.R.row(2); }
+
+// --unseen: three more frames after the turn and the test poses, split "unseen", exact fits,
+// each from its own camera (below the head looking up, above it looking down, in front at a
+// pose with the wrists above the head), the whole person inside the frame; the train and
+// test frames are those of the dataset written without them.
+TEST_F(SynthDataset, UnseenViewsLookFromBelowAboveAndAtRaisedArms) {
+  SynthOptions o = small_options();
+  write_synth_dataset(path("plain"), low_body(), o, false);
+  o.unseen = true;
+  const SynthSummary sum = write_synth_dataset(path("ds"), low_body(), o, false);
+  EXPECT_EQ(sum.unseen_frames, kSynthUnseenViews);
+  const Dataset ds = read_dataset(path("ds")), plain = read_dataset(path("plain"));
+  ASSERT_EQ(ds.frames.size(), 9u + kSynthUnseenViews);
+  EXPECT_EQ(ds.indices(Split::train).size(), 6u);
+  EXPECT_EQ(ds.indices(Split::test).size(), 3u);
+  const std::vector<int> un = ds.indices(Split::unseen);
+  ASSERT_EQ(un, (std::vector<int>{9, 10, 11}));
+  EXPECT_FALSE(ds.is_static_camera());
+  for (size_t i = 0; i < plain.frames.size(); ++i) {
+    const DatasetFrame &a = ds.frames[i], &b = plain.frames[i];
+    EXPECT_EQ(a.split, b.split) << i;
+    EXPECT_EQ(a.camera.fx, b.camera.fx) << i;
+    EXPECT_EQ(a.camera.t.z, b.camera.t.z) << i;
+    EXPECT_EQ(a.params.pose, b.params.pose) << i;
+    EXPECT_EQ(a.image.data, b.image.data) << i;
+  }
+  const Lbs<float> lbs(low_body());
+  std::vector<float> verts(size_t(low_body().num_verts) * 3), joints(size_t(kNumJoints) * 3);
+  for (int k = 0; k < kSynthUnseenViews; ++k) {
+    const DatasetFrame& f = ds.frames[size_t(un[size_t(k)])];
+    SCOPED_TRACE(synth_unseen_view_name(k));
+    EXPECT_EQ(f.params.pose, ds.params_true[size_t(un[size_t(k)])].pose);  // exact fits
+    EXPECT_EQ(f.params.transl, ds.params_true[size_t(un[size_t(k)])].transl);
+    lbs.forward(f.params, verts.data(), joints.data(), nullptr);
+    auto joint = [&](int j) { return Vec3f(joints[3 * size_t(j)], joints[3 * size_t(j) + 1], joints[3 * size_t(j) + 2]); };
+    const Vec3f head = joint(synth::kHeadJoint), C = camera_centre(f.camera), dir = view_direction(f.camera);
+    EXPECT_NEAR(norm(dir), 1.0f, 1e-5f);
+    EXPECT_GT(dot(dir, head - C), 0.0f);  // the head is in front of the camera
+    if (k == kUnseenBelow) {
+      EXPECT_LT(C.y, head.y - 0.5f);  // below the chin, looking up
+      EXPECT_GT(dir.y, 0.5f);
+    } else if (k == kUnseenAbove) {
+      EXPECT_GT(C.y, head.y + 0.5f);  // above the head, looking down
+      EXPECT_LT(dir.y, -0.5f);
+    } else {
+      EXPECT_NEAR(dir.z, -1.0f, 1e-5f);  // from the front, level
+      EXPECT_GT(joint(20).y, head.y);     // both wrists above the head
+      EXPECT_GT(joint(21).y, head.y);
+    }
+    // The person fills the frame but touches no border (fill 0.9).
+    int on = 0, border = 0;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x) {
+        const bool m = f.mask.data[size_t(y * 48 + x)] > 0;
+        on += m;
+        border += m && (x == 0 || y == 0 || x == 47 || y == 47);
+      }
+    EXPECT_GT(on, 48 * 48 / 50);
+    EXPECT_EQ(border, 0);
+  }
+  // One more row on the contact sheet.
+  EXPECT_GT(read_image(path("ds/contact_sheet.png")).height, read_image(path("plain/contact_sheet.png")).height);
 }
 
 TEST_F(SynthDataset, DeterministicForASeed) {

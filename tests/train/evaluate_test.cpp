@@ -41,6 +41,32 @@ TEST(Evaluate, TheRenderingAvatarScoresPerfectlyAndLayersMatter) {
   EXPECT_GT(both.render_ms, 0.0);
 }
 
+TEST(Evaluate, PersonPsnrIsOverTheMattesPixelsOnly) {
+  const Avatar a = scene_truth();
+  std::vector<TrainFrame> f = scene_frames(a, 2);
+  EvalOptions o;
+  o.tto_steps = 0;
+  o.premultiplied = true;
+  const EvalVariant mesh{"mesh", &a, true, false};
+  const VariantEval plain = evaluate_variant(mesh, f, o);
+  // The missing hair lies on the person, the matching background does not count.
+  ASSERT_TRUE(std::isfinite(plain.psnr_person));
+  EXPECT_LT(plain.psnr_person, plain.psnr - 1.0);
+  // A wrong background pixel (mask 0) changes the whole frame's PSNR, not the person's.
+  size_t bg = 0;
+  while (bg < f[0].mask.size() && f[0].mask[bg] > 0) ++bg;
+  ASSERT_LT(bg, f[0].mask.size());
+  for (int c = 0; c < 3; ++c) f[0].rgb[3 * bg + size_t(c)] = 1.0f;
+  const VariantEval off = evaluate_variant(mesh, f, o);
+  EXPECT_LT(off.frames[0].psnr, plain.frames[0].psnr);
+  EXPECT_DOUBLE_EQ(off.frames[0].psnr_person, plain.frames[0].psnr_person);
+  // It is the PSNR over mask > 0.5, a hard cut: a matte of 0.4 everywhere has no person.
+  for (TrainFrame& x : f) x.mask.assign(x.mask.size(), 0.4f);
+  const VariantEval none = evaluate_variant(mesh, f, o);
+  EXPECT_TRUE(std::isnan(none.psnr_person));
+  EXPECT_TRUE(std::isnan(none.frames[1].psnr_person));
+}
+
 TEST(Evaluate, PartPsnrIsOverThePartsPixelsOnly) {
   const Avatar a = scene_truth();
   std::vector<TrainFrame> f = scene_frames(a, 2);
