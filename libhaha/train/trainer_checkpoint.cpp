@@ -161,10 +161,7 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
   if (it != ck.f64.end() && it->second.size() == 3) seconds = {it->second[0], it->second[1], it->second[2]};
   if (stage <= 3) {
     begin_stage(stage);
-    if (stage == 3) {  // a run from before s2.coverage existed, resumed with it on
-      std::string note;
-      learn_coverage(note);
-    }
+    if (stage == 3) learn_coverage(resume_event);  // a run from before s2.coverage, resumed with it on
     adam.load_state(ck.f32, where);
     if (stage == 3 && validating()) {
       stop.load(ck.f64, where);

@@ -97,6 +97,7 @@ struct Trainer::Impl {
   int level_stage = 0, level = -1;      // what in.frames and the texture hold now (-1: the input as given)
 
   // ---- derived / scratch ----
+  std::string resume_event;  // what load() did, reported by the next step's event
   std::vector<std::vector<float>> frame_verts;  // stages 2-3: posed bodies (frozen)
   struct MeshCache {
     std::vector<int32_t> tri;
@@ -395,6 +396,10 @@ struct Trainer::Impl {
     r.stage = stage;
     r.steps = stage_steps(stage);
     r.event = enter_step_level();
+    if (!resume_event.empty()) {  // what loading a checkpoint did (the coverage learned on resuming)
+      r.event = resume_event + (r.event.empty() ? "" : "; " + r.event);
+      resume_event.clear();
+    }
     bool ok = true;
     if (stage == 3 && step == 0 && validating() && stop.points().empty()) {  // the unfiltered start
       sync_host();

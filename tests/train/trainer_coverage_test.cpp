@@ -105,6 +105,7 @@ TEST(TrainerCoverage, OffByDefaultAndLearnedOnResumingAStage3RunWithout) {
   Trainer u(on, scene_input(frames));
   u.load(t.save(), "checkpoint");
   EXPECT_EQ(u.avatar().mesh_coverage.size(), size_t(scene_body().num_verts));
+  EXPECT_NE(u.step().event.find("mesh coverage:"), std::string::npos) << "the first step reports what the load learned";
 }
 
 }  // namespace
