@@ -160,36 +160,43 @@ void training_section(const BenchInputs& in, BenchResult& r) {
     in.log("  " + s.name + ": " + std::to_string(s.q.gaussians) + " Gaussians, PSNR " + std::to_string(s.q.psnr) + " dB");
 }
 
-std::vector<double> opacity_weights(const BenchRunOptions& o, double w0) {
-  std::vector<double> weights;
+// The values a stage-3 re-run sweeps: --opacity-weights as given; else around the run's own
+// value v0 of its knob (the opacity weight, or the image cost of a run filtering by it).
+std::vector<double> stage3_values(const BenchRunOptions& o, Stage3Knob knob, double v0) {
+  std::vector<double> v;
   if (!o.weights.empty())
-    weights = parse_list<double>(o.weights, "--opacity-weights");
+    v = parse_list<double>(o.weights, "--opacity-weights");
+  else if (knob == Stage3Knob::opacity_weight)
+    v = {0.0, 0.1 * v0, v0, 10 * v0, 100 * v0};  // four re-runs: ~1 minute of the tiny bench
   else
-    weights = {0.0, 0.1 * w0, w0, 10 * w0, 100 * w0};  // four re-runs: ~1 minute of the tiny bench
-  std::sort(weights.begin(), weights.end());
-  weights.erase(std::unique(weights.begin(), weights.end()), weights.end());
-  return weights;
+    v = {0.2 * v0, 0.5 * v0, v0, 2 * v0, 5 * v0};
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
 }
 
-// Stage 3 again from the run's stage-2 checkpoint `ck`, with only the opacity weight changed.
+// Stage 3 again from the run's stage-2 checkpoint `ck`, with only the opacity weight changed,
+// or for a run that filters by the image (s3.prune_cost, no opacity weight) only its image cost.
 void rerun_stage3(const BenchInputs& in, const std::string& ck, BenchResult& r) {
   const BenchRunOptions& o = in.o;
   const TrainConfig& config = in.info.config;
-  const double w0 = config.s3.w.opacity;
-  const std::vector<double> weights = opacity_weights(o, w0);
+  const bool by_image = o.weights.empty() && config.s3.prune_cost > 0 && config.s3.w.opacity == 0;
+  const Stage3Knob knob = by_image ? Stage3Knob::image_cost : Stage3Knob::opacity_weight;
+  const std::string method = stage3_knob_method(knob);
+  const double v0 = by_image ? config.s3.prune_cost : config.s3.w.opacity;
   const bool full_schedule = o.retrain_steps == 0 || o.retrain_steps == config.s3.steps;
   std::vector<double> rerun;
-  for (double w : weights) {
-    // Training is deterministic: the run's own weight on the full schedule IS the
-    // trained avatar (same config, same checkpoint), so it is read off, not re-run.
-    if (full_schedule && w == w0 && config.use_opacity_reg) {
+  for (double w : stage3_values(o, knob, v0)) {
+    // Training is deterministic: the run's own value on the full schedule IS the trained
+    // avatar (same config, same checkpoint), so it is read off, not re-run.
+    if (full_schedule && w == v0 && (by_image || config.use_opacity_reg)) {
       FilterPoint p;
-      p.method = "opacity weight";
+      p.method = method;
       p.strength = w;
       p.q = evaluate_quality(in.filtered, in.ev);
       p.stage3_seconds = r.stage_seconds[2];
       r.filtering.push_back(p);
-      in.log("  opacity weight " + std::to_string(w) + ": the trained avatar");
+      in.log("  " + method + " " + std::to_string(w) + ": the trained avatar");
     } else {
       rerun.push_back(w);
     }
@@ -205,17 +212,18 @@ void rerun_stage3(const BenchInputs& in, const std::string& ck, BenchResult& r) 
   setup.input.frames = dataset_frames(in.ds, Split::train, dataset_train_resolution(in.ds, config));
   setup.stage2 = read_checkpoint(ck);
   setup.checkpoint_path = ck;
-  const std::vector<FilterPoint> re = sweep_opacity_weights(setup, rerun, in.ev, in.log);
+  const std::vector<FilterPoint> re = sweep_stage3(setup, knob, rerun, in.ev, in.log);
   r.filtering.insert(r.filtering.end(), re.begin(), re.end());
   std::stable_sort(r.filtering.begin(), r.filtering.end(), [](const FilterPoint& a, const FilterPoint& b) {
-    return a.method != b.method ? a.method > b.method : a.strength < b.strength;  // prune first, then weights
+    return a.method != b.method ? a.method > b.method : a.strength < b.strength;  // prune first, then re-runs
   });
   char note[400];
   std::snprintf(note, sizeof note,
-                "Opacity-weight points re-run stage 3 (%d steps, pruning below %g every %d steps) from the run's "
-                "checkpoint_stage2.npz with only s3.w.opacity changed%s.",
-                setup.config.s3.steps, setup.config.s3.prune_threshold, setup.config.s3.prune_every,
-                full_schedule ? "; the run's own weight is the trained avatar (training is deterministic)" : "");
+                "%s points re-run stage 3 (%d steps, pruning below %g every %d steps) from the run's "
+                "checkpoint_stage2.npz with only %s changed%s.",
+                by_image ? "Image-cost" : "Opacity-weight", setup.config.s3.steps, setup.config.s3.prune_threshold,
+                setup.config.s3.prune_every, by_image ? "s3.prune_cost" : "s3.w.opacity",
+                full_schedule ? "; the run's own value is the trained avatar (training is deterministic)" : "");
   r.notes.push_back(note);
 }
 

@@ -125,17 +125,15 @@ EvalReport run_eval(const EvalRunOptions& o) {
   if (o.frames > 0 && size_t(o.frames) < frames.size()) frames.resize(size_t(o.frames));
   if (!o.part.empty()) load_part_masks(ds, split, resolution, frames);
 
-  EvalOptions opt;
-  opt.tto_steps = o.tto_steps >= 0 ? o.tto_steps : info.config.eval_tto_steps;
-  opt.tto_resolution = o.tto_resolution >= 0 ? o.tto_resolution : info.config.eval_tto_resolution;
-  opt.lr_pose = info.config.eval_lr_pose;
-  opt.lr_pose_fine = info.config.eval_lr_pose_fine;
+  EvalOptions opt = eval_options_of(info.config);
+  if (o.tto_steps >= 0) opt.tto_steps = o.tto_steps;
+  if (o.tto_resolution >= 0) opt.tto_resolution = o.tto_resolution;
   const float bgv = o.background == "white" ? 1.0f : 0.0f;
   for (float& c : opt.background) c = bgv;
   opt.premultiplied = dataset_premultiplied(ds, info.config.premultiplied);
   opt.keep_images = o.sheet_frames;
   if (o.antialias < -1 || o.antialias > 1) fail("--antialias", "expected -1 (the run's), 0 or 1");
-  opt.antialias = o.antialias >= 0 ? o.antialias == 1 : info.config.eval_antialias;
+  if (o.antialias >= 0) opt.antialias = o.antialias == 1;
   opt.coverage_oracle = coverage_oracle_mode(o);
   std::unique_ptr<LpipsNet<float>> alex;
   LpipsWeights lw;

@@ -98,7 +98,8 @@ PlotSeries filter_method_series(const BenchResult& r, const char* method, bool p
   std::sort(pts.begin(), pts.end(), [](const FilterPoint* a, const FilterPoint* b) {
     return a->q.gaussians != b->q.gaussians ? a->q.gaussians < b->q.gaussians : a->strength < b->strength;
   });
-  se.label = prune ? "pruning the trained opacities (labels: threshold)" : "stage 3 re-run (labels: opacity weight)";
+  se.label = prune ? "pruning the trained opacities (labels: threshold)"
+                   : std::string("stage 3 re-run (labels: ") + method + ")";
   se.labels_below = !prune;  // the curves meet at the trained avatar: labels apart
   // Points that coincide (same count and score) become one point labelled with the
   // range of settings that produce it.
@@ -172,8 +173,8 @@ PlotSpec filter_budget_plot(const BenchResult& r, const std::string& sub, bool p
   for (const StageRow& s : r.stages)
     if (s.name == "HAHA filtered") haha.row = &s;
   for (const FilterPoint& fp : r.filtering)
-    if (fp.method == "opacity weight" && haha.is(fp)) haha.on_rerun = true;
-  for (const char* method : {"prune threshold", "opacity weight"}) {
+    if (fp.method != "prune threshold" && haha.is(fp)) haha.on_rerun = true;
+  for (const char* method : {"prune threshold", "opacity weight", "image cost"}) {
     PlotSeries se = filter_method_series(r, method, psnr, haha);
     if (!se.x.empty()) p.series.push_back(std::move(se));
   }

@@ -153,14 +153,23 @@ std::vector<FilterPoint> sweep_prune_thresholds(const Avatar& trained, const std
   return out;
 }
 
-std::vector<FilterPoint> sweep_opacity_weights(const RetrainSetup& setup, const std::vector<double>& weights,
-                                               const BenchEval& ev, const std::function<void(const std::string&)>& log) {
+const char* stage3_knob_method(Stage3Knob k) {
+  return k == Stage3Knob::opacity_weight ? "opacity weight" : "image cost";
+}
+
+std::vector<FilterPoint> sweep_stage3(const RetrainSetup& setup, Stage3Knob knob, const std::vector<double>& values,
+                                      const BenchEval& ev, const std::function<void(const std::string&)>& log) {
+  const std::string method = stage3_knob_method(knob);
   std::vector<FilterPoint> out;
-  for (double w : weights) {
-    if (!(w >= 0) || !std::isfinite(w)) fail("bench", "opacity weight must be finite and >= 0");
+  for (double w : values) {
+    if (!(w >= 0) || !std::isfinite(w)) fail("bench", method + " must be finite and >= 0");
     TrainConfig c = setup.config;
-    c.s3.w.opacity = w;
-    c.use_opacity_reg = true;
+    if (knob == Stage3Knob::opacity_weight) {
+      c.s3.w.opacity = w;
+      c.use_opacity_reg = true;
+    } else {
+      c.s3.prune_cost = w;
+    }
     Trainer tr(c, setup.input);
     tr.load(setup.stage2, setup.checkpoint_path);
     if (tr.stage() != 3 || tr.step_in_stage() != 0)
@@ -171,17 +180,17 @@ std::vector<FilterPoint> sweep_opacity_weights(const RetrainSetup& setup, const 
     while (!tr.done()) {
       const StepReport r = tr.step();
       if (steps >= 8 && r.step >= next_report && r.step < steps) {
-        say(log, fmt("    weight %g: step %.0f/%.0f, %.0f Gaussians", w, r.step, steps, r.gaussians));
+        say(log, "    " + method + fmt(" %g: step %.0f/%.0f, %.0f Gaussians", w, r.step, steps, r.gaussians));
         next_report += steps / 4;
       }
     }
     FilterPoint p;
-    p.method = "opacity weight";
+    p.method = method;
     p.strength = w;
     p.stage3_seconds = ms_since(t0) / 1000.0;
     p.q = evaluate_quality(tr.avatar(), ev);
-    say(log, fmt("  opacity weight %g: %.0f Gaussians, PSNR %.2f dB, stage 3 %.1f s", w, p.q.gaussians, p.q.psnr,
-                 p.stage3_seconds));
+    say(log, "  " + method +
+                 fmt(" %g: %.0f Gaussians, PSNR %.2f dB, stage 3 %.1f s", w, p.q.gaussians, p.q.psnr, p.stage3_seconds));
     out.push_back(p);
   }
   return out;

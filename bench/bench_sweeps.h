@@ -61,8 +61,8 @@ QualityPoint evaluate_quality(const Avatar& a, const BenchEval& ev, bool mesh = 
 
 // ---- 1 filtering ------------------------------------------------------------------------
 struct FilterPoint {
-  std::string method;     // "opacity weight" (stage 3 re-run) or "prune threshold" (post hoc)
-  double strength = 0;    // the weight / the threshold
+  std::string method;     // "opacity weight" / "image cost" (stage 3 re-run) or "prune threshold" (post hoc)
+  double strength = 0;    // the weight / the image cost / the threshold
   QualityPoint q;
   double stage3_seconds = 0;  // wall time of the re-run stage 3 (0 for post-hoc pruning)
 };
@@ -81,10 +81,15 @@ struct RetrainSetup {
   std::string checkpoint_path;  // named in errors
 };
 
-// One re-run of stage 3 per weight (s3.w.opacity; the config's other settings kept).
+// What a stage-3 re-run changes: the opacity weight (s3.w.opacity) or, for a run that filters
+// by the image instead (s3.prune_cost > 0, no opacity weight: estimated fits), the image cost.
+enum class Stage3Knob { opacity_weight, image_cost };
+const char* stage3_knob_method(Stage3Knob k);  // FilterPoint::method of its points
+
+// One re-run of stage 3 per value of the knob (the config's other settings kept).
 // Throws haha::Error (checkpoint path) when the checkpoint is not at the start of stage 3.
-std::vector<FilterPoint> sweep_opacity_weights(const RetrainSetup& setup, const std::vector<double>& weights,
-                                               const BenchEval& ev, const std::function<void(const std::string&)>& log);
+std::vector<FilterPoint> sweep_stage3(const RetrainSetup& setup, Stage3Knob knob, const std::vector<double>& values,
+                                      const BenchEval& ev, const std::function<void(const std::string&)>& log);
 
 // ---- 2 packing --------------------------------------------------------------------------
 struct PackSetting {

@@ -22,7 +22,8 @@ HAHA_COMMAND(bench) {
       ->capture_default_str();
   sub->add_option("--opacity-weights", o->weights,
                   "stage-3 opacity-regulariser weights to re-run stage 3 with (default: 0 and the run's weight w x 0.1, 1, 10, "
-                  "100; w itself is read off the trained avatar, not re-run)");
+                  "100; w itself is read off the trained avatar, not re-run; a run that filters by the image cost, "
+                  "s3.prune_cost without an opacity weight, re-runs its cost x 0.2, 0.5, 2 and 5 instead)");
   sub->add_option("--retrain-steps", o->retrain_steps,
                   "stage-3 steps of the re-runs (default: the run's; a shorter stage 3 re-runs the run's weight too)");
   sub->add_option("--prune-thresholds", o->thresholds,

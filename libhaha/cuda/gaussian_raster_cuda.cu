@@ -163,6 +163,7 @@ struct BackwardArgs {
   const int32_t* last;
   GaussianRasterSettings<float> settings;
   GaussianRasterOutputGrads<float> dout;
+  bool cost;        // GaussianGrads::removal_cost wanted
   float* grad_sum;  // (N, kSlots)
 };
 
@@ -179,10 +180,12 @@ __global__ void __launch_bounds__(kTilePixels) render_backward_kernel(BackwardAr
   int32_t last = -1;
   float trans = 1.0f, tfin = 1.0f, behind[3] = {0.0f, 0.0f, 0.0f}, behind_z = 0.0f;
   float d_col[3] = {0.0f, 0.0f, 0.0f}, d_dep = 0.0f, d_tf = 0.0f;
+  float backdrop_t[3] = {0.0f, 0.0f, 0.0f};  // removal cost only
   if (inside) {
     last = a.last[pix];
     trans = tfin = a.final_t[pix];
     gs::pixel_upstream(a.settings, a.dout, pix, d_col, d_dep, d_tf);
+    if (a.cost) gs::pixel_backdrop(a.settings, a.dout, pix, tfin, backdrop_t);
   }
   if (threadIdx.x == 0) max_last = int(begin) - 1;
   __syncthreads();
@@ -204,10 +207,12 @@ __global__ void __launch_bounds__(kTilePixels) render_backward_kernel(BackwardAr
       const bool mine = inside && hi - j <= last && in_box(g, x, y);
       if (!__any_sync(0xffffffffu, mine)) continue;
       gs::ProjectedGrad<float> acc;
-      float acc_col[3] = {0.0f, 0.0f, 0.0f};
+      float acc_col[3] = {0.0f, 0.0f, 0.0f}, acc_cost = 0.0f;
       if (mine)
-        gs::composite_step_backward(g, px, py, trans, tfin, behind, behind_z, d_col, d_dep, d_tf, acc, acc_col);
-      float v[kSlots] = {acc.mx, acc.my, acc.ca, acc.cb, acc.cc, acc.opacity, acc.z, acc_col[0], acc_col[1], acc_col[2]};
+        gs::composite_step_backward(g, px, py, trans, tfin, behind, behind_z, d_col, d_dep, d_tf, acc, acc_col,
+                                    a.cost ? backdrop_t : nullptr, &acc_cost);
+      float v[kSlots] = {acc.mx,    acc.my,    acc.ca,    acc.cb,    acc.cc,   acc.opacity,
+                         acc.z,     acc_col[0], acc_col[1], acc_col[2], acc_cost};
 #pragma unroll
       for (int s = 0; s < kSlots; ++s) v[s] = detail::warp_sum(v[s]);
       if (lane == 0) {
@@ -373,6 +378,7 @@ void rasterize_gaussians_backward_cuda(const GaussianInputs<float>& in, const Ca
                  st.last.data(),
                  settings,
                  dout,
+                 grads.removal_cost != nullptr,
                  st.grad_sum.data()};
   render_backward_kernel<<<tiles, kTilePixels>>>(a);
   check_launch("render_backward_kernel");

@@ -85,6 +85,9 @@ struct AvatarRenderGrads {
   float* texture = nullptr;   // (Ht, Wt, 3), when the mesh is rendered from a texture
   float* means2d_norm_accum = nullptr;  // (N) densification statistic (rasterizer's +=)
   float means2d_norm_scale[2] = {1, 1};  // its per-axis factors (GaussianGrads::means2d_norm_scale_x/y)
+  // (N) ACCUMULATED (+=): what deleting each Gaussian alone would change in the merged image,
+  // in pixels fully changed (GaussianGrads::removal_cost, the mesh and background behind).
+  float* removal_cost = nullptr;
 };
 
 // Host views of a trained avatar (body topology, Gaussians, texture) for requests; keep it
@@ -121,7 +124,7 @@ struct AvatarRenderBuffersT {
   Buffer<float> aa_color, aa_mask;           // (P, 3), (P) the antialiased mesh layer
   // backward scratch
   Buffer<float> depth_tmp, d_color_front, d_alpha, d_mesh_color, d_mesh_mask, d_mesh_color_raw, d_means, d_quats,
-      d_scales, d_opacity, d_color, d_verts_scratch;
+      d_scales, d_opacity, d_color, d_verts_scratch, under;
 };
 
 // The CPU backend: OpenMP threads over host memory.

@@ -178,6 +178,10 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
     buf.d_alpha.resize(size_t(P));
     mg.color_front = buf.d_color_front.data();
     mg.alpha = buf.d_alpha.data();
+    if (grads.removal_cost) {  // the removal cost needs what shows behind the Gaussians
+      buf.under.resize(3 * size_t(P));
+      mg.under = buf.under.data();
+    }
   }
   if (mesh_grad) {
     buf.d_mesh_color.resize(3 * size_t(P));
@@ -201,6 +205,7 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
     GaussianRasterOutputGrads<float> dout;
     dout.color = buf.d_color_front.data();
     dout.alpha = buf.d_alpha.data();
+    if (grads.removal_cost) dout.backdrop = buf.under.data();
     GaussianGrads<float> gg;
     gg.means = buf.d_means.data();
     gg.quats = buf.d_quats.data();
@@ -210,6 +215,7 @@ void render_backward(const AvatarRenderRequest& req, Buf& buf, const float* d_im
     gg.means2d_norm_accum = grads.means2d_norm_accum;
     gg.means2d_norm_scale_x = grads.means2d_norm_scale[0];
     gg.means2d_norm_scale_y = grads.means2d_norm_scale[1];
+    gg.removal_cost = grads.removal_cost;
     B::rasterize_backward(raster_inputs(buf, g), cam, raster_settings(req, buf), buf.raster, dout, gg);
     if (d_means_extra) B::add(int64_t(3 * n), d_means_extra, buf.d_means.data());
     if (grads.opacity) B::add(int64_t(n), buf.d_opacity.data(), grads.opacity);

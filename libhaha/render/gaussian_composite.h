@@ -17,8 +17,9 @@
 
 namespace haha::gs {
 
-// Per-(Gaussian, tile) gradient slots: mx, my, ca, cb, cc, opacity, z, r, g, b.
-inline constexpr int kGradSlots = 10;
+// Per-(Gaussian, tile) gradient slots: mx, my, ca, cb, cc, opacity, z, r, g, b, and the
+// removal cost (GaussianGrads::removal_cost).
+inline constexpr int kGradSlots = 11;
 
 // Inclusive tile range of a projected Gaussian's pixel box.
 struct TileRect {
@@ -93,11 +94,13 @@ HAHA_HD bool composite_step(const ProjectedGaussian<T>& g, T px, T py, T occlude
 // trans walks back from T_final (tfin); behind / behind_z are the colour and depth of the
 // Gaussians behind g already visited; d_col (3), d_dep, d_tf are dL/d(colour, depth,
 // T_final) of the pixel. Adds g's screen-space gradient to acc and its colour gradient to
-// acc_col (3).
+// acc_col (3). With backdrop_t (3: T_final times what shows behind every Gaussian), adds
+// what removing g changes at this pixel to acc_cost: alpha T_i (c - behind normalised) =
+// w c - alpha (behind + backdrop_t) / (1 - alpha), mean |.| over the channels.
 template <class T>
 HAHA_HD void composite_step_backward(const ProjectedGaussian<T>& g, T px, T py, T& trans, T tfin, T* behind,
                                      T& behind_z, const T* d_col, T d_dep, T d_tf, ProjectedGrad<T>& acc,
-                                     T* acc_col) {
+                                     T* acc_col, const T* backdrop_t = nullptr, T* acc_cost = nullptr) {
   T dx, dy, gauss;
   bool clamped;
   const T alpha = pixel_alpha(g, px, py, dx, dy, gauss, clamped);
@@ -105,6 +108,14 @@ HAHA_HD void composite_step_backward(const ProjectedGaussian<T>& g, T px, T py, 
   const T one_minus = 1 - alpha;
   const T t_i = trans / one_minus;  // transmittance in front of this Gaussian
   const T w = alpha * t_i;
+  if (backdrop_t) {
+    T cost = 0;
+    for (int c = 0; c < 3; ++c) {
+      const T change = w * g.color[c] - alpha * (behind[c] + backdrop_t[c]) / one_minus;
+      cost += change < 0 ? -change : change;
+    }
+    *acc_cost += cost / 3;
+  }
   T d_alpha = 0;
   for (int c = 0; c < 3; ++c) {
     d_alpha += d_col[c] * (g.color[c] * t_i - behind[c] / one_minus);
@@ -134,6 +145,16 @@ HAHA_HD void pixel_upstream(const GaussianRasterSettings<T>& s, const GaussianRa
   if (dout.alpha) dtf -= dout.alpha[pix];
   d_tf = dtf;
   d_dep = dout.depth ? dout.depth[pix] : T(0);
+}
+
+// T_final times what shows behind every Gaussian at pixel pix (for the removal cost):
+// dout.backdrop, else the raster's background.
+template <class T>
+HAHA_HD void pixel_backdrop(const GaussianRasterSettings<T>& s, const GaussianRasterOutputGrads<T>& dout, int64_t pix,
+                            T tfin, T* out) {
+  for (int c = 0; c < 3; ++c)
+    out[c] = tfin * (dout.backdrop ? dout.backdrop[3 * pix + c]
+                                   : (s.background ? s.background[3 * pix + c] : s.background_color[c]));
 }
 
 // Gaussian i's input gradients from its summed gradient slots (sum, kGradSlots values):
@@ -210,6 +231,7 @@ HAHA_HD void gaussian_backward_one(const GaussianInputs<T>& in, const CameraT<T>
   if (d_scale)
     for (int k = 0; k < 3; ++k) d_scale[k] = ds[k];
   if (d_opac) *d_opac = dop;
+  if (grads.removal_cost) grads.removal_cost[i] += sum[10];
 }
 
 }  // namespace haha::gs

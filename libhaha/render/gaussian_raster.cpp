@@ -29,7 +29,7 @@ namespace {
 
 using gs::kTileSize;
 constexpr int kTilePixels = kTileSize * kTileSize;
-constexpr int kPairGradSize = gs::kGradSlots;  // mx, my, ca, cb, cc, opacity, z, r, g, b
+constexpr int kPairGradSize = gs::kGradSlots;  // mx, my, ca, cb, cc, opacity, z, r, g, b, removal cost
 
 template <class T>
 void validate(const GaussianInputs<T>& in, const CameraT<T>& cam) {
@@ -268,6 +268,8 @@ void rasterize_gaussians_backward(const GaussianInputs<T>& in, const CameraT<T>&
     // behind (already visited), upstream gradients.
     T trans[kTilePixels], behind[3 * kTilePixels], behind_z[kTilePixels];
     T d_col[3 * kTilePixels], d_dep[kTilePixels], d_tf[kTilePixels], tfin[kTilePixels];
+    T backdrop_t[3 * kTilePixels];  // removal cost only
+    const bool cost = grads.removal_cost != nullptr;
     int32_t last[kTilePixels];
     int64_t max_last = int64_t(begin) - 1;
     for (int l = 0; l < kTilePixels; ++l) last[l] = -1;
@@ -280,13 +282,14 @@ void rasterize_gaussians_backward(const GaussianInputs<T>& in, const CameraT<T>&
         trans[l] = tfin[l] = st.final_t[size_t(pix)];
         behind[3 * l] = behind[3 * l + 1] = behind[3 * l + 2] = behind_z[l] = 0;
         gs::pixel_upstream(settings, dout, pix, d_col + 3 * l, d_dep[l], d_tf[l]);
+        if (cost) gs::pixel_backdrop(settings, dout, pix, tfin[l], backdrop_t + 3 * l);
       }
     for (int64_t pos = max_last + 1; pos < int64_t(end); ++pos)
       std::fill(pg + pos * kPairGradSize, pg + (pos + 1) * kPairGradSize, T(0));
     for (int64_t pos = max_last; pos >= int64_t(begin); --pos) {
       const auto& g = st.proj[st.tile_list[size_t(pos)]];
       gs::ProjectedGrad<T> acc;
-      T acc_col[3] = {0, 0, 0};
+      T acc_col[3] = {0, 0, 0}, acc_cost = 0;
       const int x0 = std::max(g.x0, px0) - px0, x1 = std::min(g.x1, px0 + pw - 1) - px0;
       const int y0 = std::max(g.y0, py0) - py0, y1 = std::min(g.y1, py0 + ph - 1) - py0;
       for (int y = y0; y <= y1; ++y) {
@@ -295,7 +298,8 @@ void rasterize_gaussians_backward(const GaussianInputs<T>& in, const CameraT<T>&
           const int l = y * kTileSize + x;
           if (pos > last[l]) continue;
           gs::composite_step_backward(g, T(px0 + x) + T(0.5), py, trans[l], tfin[l], behind + 3 * l, behind_z[l],
-                                      d_col + 3 * l, d_dep[l], d_tf[l], acc, acc_col);
+                                      d_col + 3 * l, d_dep[l], d_tf[l], acc, acc_col,
+                                      cost ? backdrop_t + 3 * l : nullptr, &acc_cost);
         }
       }
       T* dst = pg + pos * kPairGradSize;
@@ -309,6 +313,7 @@ void rasterize_gaussians_backward(const GaussianInputs<T>& in, const CameraT<T>&
       dst[7] = acc_col[0];
       dst[8] = acc_col[1];
       dst[9] = acc_col[2];
+      dst[10] = acc_cost;
     }
   });
 

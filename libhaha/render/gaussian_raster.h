@@ -70,6 +70,9 @@ struct GaussianRasterOutputGrads {
   const T* alpha = nullptr;
   const T* depth = nullptr;
   const T* composite = nullptr;
+  // Not a gradient: what shows behind the Gaussians (H, W, 3) for GaussianGrads::removal_cost
+  // (a merge's mesh-or-background); null = the raster's own background.
+  const T* backdrop = nullptr;
 };
 
 // dL/d(inputs), caller-allocated, overwritten; null = not wanted.
@@ -89,6 +92,11 @@ struct GaussianGrads {
   T means2d_norm_scale_x = 1, means2d_norm_scale_y = 1;
   T* background = nullptr;        // (H, W, 3) when settings.background is set
   T* background_color = nullptr;  // (3) when settings.background is null
+  // Not a gradient: ACCUMULATED (+=) per Gaussian, what removing it would change in the
+  // composite, sum over pixels of alpha_i T_i |c_i - behind_i| (mean over channels; behind_i:
+  // the colour of what lies behind it there, the backdrop included). Exact: deleting Gaussian
+  // i alone changes each pixel by alpha_i T_i (c_i - behind_i). Units: pixels fully changed.
+  T* removal_cost = nullptr;  // (N)
 };
 
 // What the forward leaves for the backward (and for densification), reused across calls

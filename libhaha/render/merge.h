@@ -39,6 +39,9 @@ struct MergeGradsT {
   T* mesh_mask = nullptr;         // (P)
   T* background = nullptr;        // (P, 3)
   T* background_color = nullptr;  // (3)
+  // Not a gradient: the colour behind the Gaussians, U = m M + (1 - m) B (P, 3), for the
+  // rasterizer's removal cost (GaussianRasterOutputGrads::backdrop).
+  T* under = nullptr;
 };
 
 using MergeInputs = MergeInputsT<float>;
@@ -82,6 +85,8 @@ HAHA_HD void merge_backward_pixel(const MergeInputsT<T>& in, int64_t p, const T*
   merge_under(in, p, under);
   if (grads.color_front)
     for (int c = 0; c < 3; ++c) grads.color_front[3 * p + c] = g[c];
+  if (grads.under)
+    for (int c = 0; c < 3; ++c) grads.under[3 * p + c] = under[c];
   if (grads.alpha) grads.alpha[p] = -(g[0] * under[0] + g[1] * under[1] + g[2] * under[2]);
   if (grads.mesh_color)
     for (int c = 0; c < 3; ++c) grads.mesh_color[3 * p + c] = (T(1) - A) * m * g[c];

@@ -187,11 +187,22 @@ struct Stage3Config {
   OpacityRegMode opacity_mode = OpacityRegMode::SumSquares;
   double prune_threshold = 0.1;  // opacity below this: deleted
   int prune_every = 201;         // and once at the end of the stage
+  // > 0: a prune also deletes each Gaussian whose deletion would change the merged images
+  // less than this: the mean over the stage-3 frames rendered since the last prune of
+  // sum alpha T |colour - what lies behind| over its pixels (render/gaussian_raster.h
+  // removal_cost), in millionths of a frame's pixels, each fully changed. It judges a
+  // Gaussian by the image users see (hidden by the mesh, or the mesh's colour: it costs
+  // nothing), not by its opacity alone. 0: opacity only.
+  double prune_cost = 0;
   // > 0: every validation_every-th training frame is held out of all three stages and the
   // filtering ends on the point of its run chosen on those views (train/filter_stop.h): the
   // fewest Gaussians within stop_db of the best PSNR, keeping at most max_kept of stage 1's.
   // 0: the fixed weight's result.
   int validation_every = 0;
+  // With validation: the views' poses are fitted once at the start of stage 3 (test-time pose
+  // optimisation with the avatar frozen, eval.tto_* as `haha eval` fits a held-out frame),
+  // so that their score sees the avatar, not the pose error of the photometric fit.
+  bool validation_tto = true;
   double stop_db = 0.1;
   double max_kept = 0.4;
   double depth_margin = 0.0;     // Gaussians with centre z <= D + margin are in front (metres, <= 1)

@@ -42,6 +42,16 @@ double variant_train_seconds(const std::array<double, 3>& s, size_t variant_inde
   }
 }
 
+EvalOptions eval_options_of(const TrainConfig& c) {
+  EvalOptions o;
+  o.tto_steps = c.eval_tto_steps;
+  o.tto_resolution = c.eval_tto_resolution;
+  o.lr_pose = c.eval_lr_pose;
+  o.lr_pose_fine = c.eval_lr_pose_fine;
+  o.antialias = c.eval_antialias;
+  return o;
+}
+
 int64_t storage_bytes(const Avatar& a, bool mesh, bool gaussians) {
   int64_t b = 0;
   if (gaussians) b += int64_t(a.gaussians.size()) * (56 + 4);

@@ -69,6 +69,10 @@ struct EvalOptions {
   const std::vector<float>* texel_coverage = nullptr;  // (Ht * Wt) 0/1; texel mode's merges
 };
 
+// A run's own test-time settings (eval.*: steps, coarse size, rates, antialiasing); the rest
+// as EvalOptions' defaults.
+EvalOptions eval_options_of(const TrainConfig& c);
+
 // Pixels within this distance of the ground-truth mask's outline make the outline PSNR.
 constexpr int kOutlineBandPx = 3;
 

@@ -53,6 +53,10 @@ TrainCheckpoint Trainer::Impl::save() const {
     ck.f32["densify.grad_accum"] = grad_accum;
     ck.f32["densify.count"] = grad_count;
   }
+  if (stage == 3 && !removal_cost.empty()) {
+    ck.f32["prune.removal_cost"] = removal_cost;
+    ck.f64["prune.removal_frames"] = {removal_frames};
+  }
   ck.i32["knn.sets"] = knn_idx;
   return ck;
 }
@@ -167,6 +171,17 @@ void Trainer::Impl::load(const TrainCheckpoint& ck, const std::string& where) {
       stop.load(ck.f64, where);
       for (const char* k : {"within", "best"})
         if (stop.has_kept(k)) stop.kept(k) = read_g(std::string("stop.") + k + ".");
+    }
+    if (stage == 3 && pruning_by_cost() && ck.f32.count("prune.removal_cost")) {  // else since the resume only
+      std::vector<float> rc = getf("prune.removal_cost");
+      const auto fr = ck.f64.find("prune.removal_frames");
+      if (rc.size() != size_t(g.size()) || fr == ck.f64.end() || fr->second.size() != 1 ||
+          !(std::isfinite(fr->second[0]) && fr->second[0] >= 0))
+        fail(where, "prune.*: sizes do not match the Gaussians");
+      for (float c : rc)
+        if (!(std::isfinite(c) && c >= 0.0f)) fail(where, "prune.removal_cost: values must be finite and >= 0");
+      removal_cost = std::move(rc);
+      removal_frames = fr->second[0];
     }
     if (stage == 1) {
       grad_accum = getf("densify.grad_accum");

@@ -60,6 +60,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
   DeviceBuffer<int32_t> face, knn;
   DeviceBuffer<float> face_stretch;  // per body face, uploaded at first use
   DeviceBuffer<float> offset, rotation, scale_logit, color_logit, opacity_logit, grad_accum, grad_count, texture;
+  DeviceBuffer<float> removal_cost;  // stage 3 with s3.prune_cost (the host's Trainer::Impl::removal_cost)
   // ---- derived / scratch ----
   std::vector<DeviceBuffer<float>> frame_verts;  // stage 3: the frozen posed bodies
   struct Mesh {
@@ -103,6 +104,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
       grad_accum.upload(t.grad_accum);
       grad_count.upload(t.grad_count);
     }
+    if (t.stage == 3 && t.pruning_by_cost()) removal_cost.upload(t.removal_cost);
     if (!t.texture.empty()) texture.upload(t.texture);
     knn.upload(t.knn_idx);
     adam = cuda::AdamCuda(t.adam.config());
@@ -125,6 +127,7 @@ struct Trainer::Impl::Cuda : TrainerDevice {
       t.grad_accum = grad_accum.to_host();
       t.grad_count = grad_count.to_host();
     }
+    if (t.stage == 3 && t.pruning_by_cost()) t.removal_cost = removal_cost.to_host();
     if (t.stage == 2) t.texture = texture.to_host();
     for (const std::string& name : groups) {
       const int d = adam.group(name);
@@ -448,6 +451,10 @@ struct Trainer::Impl::Cuda : TrainerDevice {
       AvatarRenderGrads gr;
       gr.color = d_color.data();
       gr.opacity = d_opacity.data();
+      if (t.pruning_by_cost()) {
+        gr.removal_cost = removal_cost.data();
+        t.removal_frames += 1;
+      }
       cuda::render_avatar_backward_cuda(req, rbuf, d_image.data(), d_alpha_ptr, nullptr, gr);
     }
     if (w.opacity > 0 && n > 0) {

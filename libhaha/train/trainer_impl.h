@@ -82,6 +82,10 @@ struct Trainer::Impl {
   TextureCharts tex_charts;
   Adam adam;
   std::vector<float> grad_accum, grad_count;  // densification statistics
+  // Stage 3 with s3.prune_cost: each Gaussian's removal cost summed over the frames rendered
+  // since the last prune, and their count.
+  std::vector<float> removal_cost;
+  double removal_frames = 0;
   std::vector<int32_t> knn_idx;
   // Per face: how much it stretches as the arms move (train/face_stretch.h); set up only
   // when the stretch regulariser is on.
@@ -255,6 +259,7 @@ struct Trainer::Impl {
       adam.add_group("opacity", n, cfg.s3.lr_opacity, 1);
       if (validating()) stop.begin(cfg.s3.stop_db, int(cfg.s3.max_kept * (have_s1 ? g_s1.size() : g.size())));
       adam.add_group("color", 3 * int64_t(n), cfg.s3.lr_color, 3);
+      reset_removal_cost();
       build_frame_verts();
     }
     for (MeshCache& m : mesh_cache) m.ready = false;
@@ -363,6 +368,11 @@ struct Trainer::Impl {
   bool step3(LossTerms& terms, std::string& event);
 
   void prune(std::string& event);
+  bool pruning_by_cost() const { return cfg.s3.prune_cost > 0; }
+  void reset_removal_cost() {
+    removal_cost.assign(pruning_by_cost() ? size_t(g.size()) : 0, 0.0f);
+    removal_frames = 0;
+  }
   bool validating() const { return cfg.s3.validation_every > 0 && !in.validation.empty(); }
   // The mesh of a posed body in a camera into m: coverage and, at stage 2, triangle ids and
   // UVs; at stage 3 depth and texture colour.
@@ -384,6 +394,8 @@ struct Trainer::Impl {
   }
   // Mean PSNR of the merged render over the validation views, on black.
   double validation_psnr();
+  // Stage 3 starts: the validation views' poses fitted to the unfiltered avatar (s3.validation_tto).
+  void fit_validation_poses(std::string& event);
   // Scores the current state for the filter's stop (host state current).
   void score_filter(int done_steps, std::string& event);
   // Stage 3 ends: the state becomes the point its validation chose.
@@ -403,6 +415,7 @@ struct Trainer::Impl {
     bool ok = true;
     if (stage == 3 && step == 0 && validating() && stop.points().empty()) {  // the unfiltered start
       sync_host();
+      fit_validation_poses(r.event);
       score_filter(0, r.event);
     }
     if (r.steps > 0) {

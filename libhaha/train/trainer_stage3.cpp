@@ -1,4 +1,5 @@
 // Stage 3: learned filtering of the Gaussians over the frozen textured mesh, and pruning.
+#include "train/evaluate.h"
 #include "train/trainer_impl.h"
 
 namespace haha {
@@ -61,6 +62,10 @@ bool Trainer::Impl::step3(LossTerms& terms, std::string& event) {
     AvatarRenderGrads gr;
     gr.color = d_color.data();
     gr.opacity = d_opacity.data();
+    if (pruning_by_cost()) {
+      gr.removal_cost = removal_cost.data();
+      removal_frames += 1;
+    }
     render_avatar_backward(req, rbuf, d_image.data(), d_alpha_ptr, nullptr, gr);
   }
   if (w.opacity > 0 && n > 0) {
@@ -80,22 +85,63 @@ bool Trainer::Impl::step3(LossTerms& terms, std::string& event) {
   return true;
 }
 
+// Deletes the Gaussians under the opacity threshold and, with s3.prune_cost, those whose
+// deletion would change the frames rendered since the last prune less than that.
 void Trainer::Impl::prune(std::string& event) {
   const int before = g.size();
   const float thr = logit(float(cfg.s3.prune_threshold));
   std::vector<uint8_t> keep(static_cast<size_t>(before));
   for (int i = 0; i < before; ++i)
     keep[size_t(i)] = cfg.s3.prune_threshold <= 0 || g.opacity_logit[size_t(i)] >= thr;
+  int by_cost = 0;
+  if (pruning_by_cost() && removal_frames > 0 && removal_cost.size() == size_t(before)) {
+    const double min_sum = cfg.s3.prune_cost * 1e-6 * double(P) * removal_frames;
+    for (int i = 0; i < before; ++i)
+      if (keep[size_t(i)] && double(removal_cost[size_t(i)]) < min_sum) {
+        keep[size_t(i)] = 0;
+        ++by_cost;
+      }
+  }
   const std::vector<int64_t> idx = indices_where(keep);
-  if (int(idx.size()) == before) return;
+  if (int(idx.size()) == before) {
+    reset_removal_cost();
+    return;
+  }
   select(g, idx);
   adam.reindex(adam.group("opacity"), idx);
   adam.reindex(adam.group("color"), idx);
   knn_idx.clear();
+  reset_removal_cost();
   event += (event.empty() ? "" : "; ") + std::string("prune ") + std::to_string(before) + " -> " + std::to_string(g.size());
+  if (by_cost > 0) event += " (" + std::to_string(by_cost) + " by image cost)";
 }
 
 // ---- where the filtering stops (train/filter_stop.h) ----
+
+void Trainer::Impl::fit_validation_poses(std::string& event) {
+  if (!cfg.s3.validation_tto || cfg.eval_tto_steps <= 0) return;
+  const Avatar a = make_avatar(g);  // stage 1's Gaussians over the texture: the naive merge
+  EvalOptions opt = eval_options_of(cfg);
+  opt.premultiplied = in.premultiplied;
+  std::vector<TrainFrame> views = in.validation;
+  for (TrainFrame& f : views) {
+    f.params.betas = betas;
+    if (f.params.expression.size() > size_t(body.num_expr)) f.params.expression.resize(size_t(body.num_expr));
+  }
+  const VariantEval r = evaluate_variant(EvalVariant{"naive merge", &a, true, true}, views, opt);
+  double before = 0, after = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    SmplxParams& p = in.validation[i].params;
+    p.pose = r.poses[i].pose;
+    p.transl = r.poses[i].transl;
+    before += r.frames[i].tto_loss_start;
+    after += r.frames[i].tto_loss_end;
+  }
+  char b[128];
+  std::snprintf(b, sizeof b, "validation poses fitted (%d steps): loss %.4f -> %.4f", cfg.eval_tto_steps,
+                before / double(views.size()), after / double(views.size()));
+  event += (event.empty() ? "" : "; ") + std::string(b);
+}
 
 double Trainer::Impl::validation_psnr() {
   activate(g, float(cfg.scale_max), act);

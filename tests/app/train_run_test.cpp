@@ -262,7 +262,7 @@ TEST_F(TrainRunTest, EstimatedFitsTrainWithTheirSettingsAndExactOnesWithThePrese
       EXPECT_TRUE(saved.eval_antialias);
       EXPECT_EQ(saved.s1.steps, 6);  // the user's keys stay
       EXPECT_NE(log_.find("fits: estimated (dataset.json): s0.photo.steps=6000 s0.surface.steps=2000 s0.surface.max_in=0.015 "
-                          "s0.surface.w.outside=4 s1.lr.pose=0.005 s3.w.opacity=2e-06 "
+                          "s0.surface.w.outside=4 s1.lr.pose=0.005 s3.w.opacity=0 s3.prune_cost=0.05 "
                           "s3.depth_margin=0.01 eval.tto_steps=100 eval.antialias=true (override any with key=value"),
                 std::string::npos)
           << log_;

@@ -175,14 +175,20 @@ TEST(PipelineBench, TinyRunBenchReport) {
     ev.frames = dataset_frames(ds, Split::test, info.config.resolution);
     ev.options.tto_steps = 0;
     ev.options.premultiplied = setup.input.premultiplied;
-    const std::vector<FilterPoint> again = sweep_opacity_weights(setup, {info.config.s3.w.opacity}, ev, nullptr);
+    const std::vector<FilterPoint> again = sweep_stage3(setup, Stage3Knob::opacity_weight, {info.config.s3.w.opacity}, ev, nullptr);
     ASSERT_EQ(again.size(), 1u);
     EXPECT_EQ(again[0].q.gaussians, trained.gaussians.size());
     EXPECT_NEAR(again[0].q.psnr, row.at("HAHA filtered").at("psnr").get<double>(), 1e-6);
+    // The image-cost knob: a cost no Gaussian reaches deletes them all at the first prune.
+    const std::vector<FilterPoint> costs = sweep_stage3(setup, Stage3Knob::image_cost, {1e12}, ev, nullptr);
+    ASSERT_EQ(costs.size(), 1u);
+    EXPECT_EQ(costs[0].method, "image cost");
+    EXPECT_EQ(costs[0].strength, 1e12);
+    EXPECT_EQ(costs[0].q.gaussians, 0);
     // A checkpoint that is not at the start of stage 3 is refused, naming the file.
     setup.stage2 = read_checkpoint(d + "/run/checkpoint_stage1.npz");
     try {
-      sweep_opacity_weights(setup, {0.0}, ev, nullptr);
+      sweep_stage3(setup, Stage3Knob::opacity_weight, {0.0}, ev, nullptr);
       ADD_FAILURE() << "a stage-1 checkpoint was accepted";
     } catch (const Error& e) {
       EXPECT_EQ(std::string(e.what()).rfind(setup.checkpoint_path + ": ", 0), 0u) << e.what();

@@ -420,7 +420,7 @@ void raster_parity(bool use_sh, bool antialiased, bool depth, bool per_pixel_bg)
                            d_depth = randv(P, -1, 1, 53), d_comp = randv(3 * P, -1, 1, 54);
   const size_t ksh = use_sh ? 48 : 0;
   std::vector<float> gm(3 * n), gq(4 * n), gs(3 * n), go(n), gcol(3 * n), gsh(ksh * n), gm2(2 * n), acc(n, 0.5f),
-      gbg(3 * P), gbgc(3);
+      gbg(3 * P), gbgc(3), cost(n, 0.25f);
   GaussianGrads<float> hg;
   hg.means = gm.data();
   hg.quats = gq.data();
@@ -432,12 +432,13 @@ void raster_parity(bool use_sh, bool antialiased, bool depth, bool per_pixel_bg)
   hg.means2d_norm_accum = acc.data();
   hg.background = gbg.data();
   hg.background_color = gbgc.data();
+  hg.removal_cost = cost.data();
   rasterize_gaussians_backward(hin, s.cam, hs, cst, {d_color.data(), d_alpha.data(), d_depth.data(), d_comp.data()},
                                hg);
 
   DeviceBuffer<float> ddc = up(d_color), dda = up(d_alpha), ddd = up(d_depth), ddk = up(d_comp);
   DeviceBuffer<float> bm(3 * n), bq(4 * n), bs(3 * n), bo(n), bcol(3 * n), bsh(std::max<size_t>(1, ksh * n)),
-      bm2(2 * n), bacc(std::vector<float>(n, 0.5f)), bbg(3 * P), bbgc(3);
+      bm2(2 * n), bacc(std::vector<float>(n, 0.5f)), bbg(3 * P), bbgc(3), bcost(std::vector<float>(n, 0.25f));
   GaussianGrads<float> dg;
   dg.means = bm.data();
   dg.quats = bq.data();
@@ -449,6 +450,7 @@ void raster_parity(bool use_sh, bool antialiased, bool depth, bool per_pixel_bg)
   dg.means2d_norm_accum = bacc.data();
   dg.background = bbg.data();
   dg.background_color = bbgc.data();
+  dg.removal_cost = bcost.data();
   cuda::rasterize_gaussians_backward_cuda(din, s.cam, ds, gst, {ddc.data(), dda.data(), ddd.data(), ddk.data()}, dg);
 
   // A flipped cut changes a few Gaussians' sums: allow kCutFrac of them, or 3.
@@ -459,6 +461,7 @@ void raster_parity(bool use_sh, bool antialiased, bool depth, bool per_pixel_bg)
   expect_close("d_opacities", go, bo.to_host(), kGrad, frac);
   expect_close("d_means2d", gm2, bm2.to_host(), kGrad, frac);
   expect_close("means2d_norm_accum", acc, bacc.to_host(), kGrad, frac);
+  expect_close("removal_cost", cost, bcost.to_host(), kGrad, frac);
   if (use_sh) {
     std::vector<float> h = bsh.to_host();
     h.resize(ksh * n);
@@ -895,16 +898,17 @@ void avatar_render_parity(bool antialias) {
 
   const std::vector<float> dimg = randv(3 * size_t(P), -1, 1, 121), dal = randv(size_t(P), -1, 1, 122);
   std::vector<float> gv(3 * size_t(V), 0), go(3 * size_t(N), 0), gr(4 * size_t(N), 0), gs(3 * size_t(N), 0),
-      gcol(3 * size_t(N), 0), gop(size_t(N), 0), gt(s.texture.size(), 0), acc(size_t(N), 0);
-  render_avatar_backward(rc, bc, dimg.data(), dal.data(), nullptr,
-                         {gv.data(), go.data(), gr.data(), gs.data(), gcol.data(), gop.data(), gt.data(), acc.data()});
+      gcol(3 * size_t(N), 0), gop(size_t(N), 0), gt(s.texture.size(), 0), acc(size_t(N), 0), cost(size_t(N), 0);
+  AvatarRenderGrads hgr{gv.data(), go.data(), gr.data(), gs.data(), gcol.data(), gop.data(), gt.data(), acc.data()};
+  hgr.removal_cost = cost.data();
+  render_avatar_backward(rc, bc, dimg.data(), dal.data(), nullptr, hgr);
   DeviceBuffer<float> ddimg = up(dimg), ddal = up(dal);
   DeviceBuffer<float> hv(gv.size()), ho(go.size()), hr(gr.size()), hs(gs.size()), hc(gcol.size()), hop(gop.size()),
-      ht(gt.size()), hacc(acc.size());
-  for (auto* b : {&hv, &ho, &hr, &hs, &hc, &hop, &ht, &hacc}) b->zero();
-  cuda::render_avatar_backward_cuda(rg, bg, ddimg.data(), ddal.data(), nullptr,
-                                    {hv.data(), ho.data(), hr.data(), hs.data(), hc.data(), hop.data(), ht.data(),
-                                     hacc.data()});
+      ht(gt.size()), hacc(acc.size()), hcost(cost.size());
+  for (auto* b : {&hv, &ho, &hr, &hs, &hc, &hop, &ht, &hacc, &hcost}) b->zero();
+  AvatarRenderGrads dgr{hv.data(), ho.data(), hr.data(), hs.data(), hc.data(), hop.data(), ht.data(), hacc.data()};
+  dgr.removal_cost = hcost.data();
+  cuda::render_avatar_backward_cuda(rg, bg, ddimg.data(), ddal.data(), nullptr, dgr);
   // Vertex and texel gradients mix both layers' sums: the coverage cut applies here too.
   const double frac = std::max(kCutFrac, 3.0 / double(N));
   expect_close("avatar d_verts", gv, hv.to_host(), kGrad, kCutFrac);
@@ -915,6 +919,7 @@ void avatar_render_parity(bool antialias) {
   expect_close("avatar d_opacity", gop, hop.to_host(), kGrad, frac);
   expect_close("avatar d_texture", gt, ht.to_host(), kGrad, kCutFrac);
   expect_close("avatar means2d accum", acc, hacc.to_host(), kGrad, frac);
+  expect_close("avatar removal cost", cost, hcost.to_host(), kGrad, frac);
 }
 
 TEST(CudaParity, AvatarRenderForwardBackward) {

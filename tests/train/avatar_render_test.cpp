@@ -60,22 +60,34 @@ struct Scene {
     }
   }
 };
+// The scene's render request for these vertices, Gaussians and texture (it points into
+// itself and the arguments: keep them alive, do not copy).
+struct SceneRequest {
+  TextureView tv;
+  GaussianSetView gv;
+  BodyTopology topology;
+  AvatarRenderRequest req;
+  SceneRequest(const Scene& s, const std::vector<float>& verts, const BoundGaussians& g, const std::vector<float>& tex,
+               bool mesh, bool gauss)
+      : tv{s.a.texture.width, s.a.texture.height, 3, tex.data()},
+        gv{g.size(), g.face.data(), g.offset.data(), g.rotation.data(), g.scale.data(), g.color.data(), g.opacity.data()},
+        topology(topology_of(s.a.body)) {
+    req.camera = &s.cam;
+    req.body = &topology;
+    req.verts = verts.data();
+    req.face_scale_divisor = s.a.face_scale_divisor;
+    req.gaussians = gauss ? &gv : nullptr;
+    req.texture = mesh ? &tv : nullptr;
+    req.background[0] = 0.2f;
+    req.background[2] = 0.7f;
+  }
+  SceneRequest(const SceneRequest&) = delete;
+};
+
 double loss_of(const Scene& s, const std::vector<float>& verts, const BoundGaussians& g, const std::vector<float>& tex,
                bool mesh, bool gauss, AvatarRenderBuffers& buf) {
-  const TextureView tv{s.a.texture.width, s.a.texture.height, 3, tex.data()};
-  const GaussianSetView gv{g.size(), g.face.data(), g.offset.data(), g.rotation.data(),
-                           g.scale.data(), g.color.data(), g.opacity.data()};
-  AvatarRenderRequest req;
-  req.camera = &s.cam;
-  const BodyTopology topology = topology_of(s.a.body);
-  req.body = &topology;
-  req.verts = verts.data();
-  req.face_scale_divisor = s.a.face_scale_divisor;
-  req.gaussians = gauss ? &gv : nullptr;
-  req.texture = mesh ? &tv : nullptr;
-  req.background[0] = 0.2f;
-  req.background[2] = 0.7f;
-  render_avatar(req, buf);
+  const SceneRequest r(s, verts, g, tex, mesh, gauss);
+  render_avatar(r.req, buf);
   double L = 0;
   for (size_t i = 0; i < buf.image.size(); ++i) L += double(s.weights[i]) * buf.image[i];
   for (size_t i = 0; i < buf.alpha.size(); ++i) L += double(s.walpha[i]) * buf.alpha[i];
@@ -152,19 +164,8 @@ void run_case(bool mesh, bool gauss) {
   std::mt19937 rng(3);
   std::normal_distribution<float> nd(0, 1);
   for (float& x : dmeans) x = nd(rng);  // an extra regulariser gradient on the world means
-  const TextureView tv{s.a.texture.width, s.a.texture.height, 3, s.a.texture.rgb.data()};
-  const GaussianSetView gv{g.size(), g.face.data(), g.offset.data(), g.rotation.data(),
-                           g.scale.data(), g.color.data(), g.opacity.data()};
-  AvatarRenderRequest req;
-  req.camera = &s.cam;
-  const BodyTopology topology = topology_of(s.a.body);
-  req.body = &topology;
-  req.verts = s.verts.data();
-  req.face_scale_divisor = s.a.face_scale_divisor;
-  req.gaussians = gauss ? &gv : nullptr;
-  req.texture = mesh ? &tv : nullptr;
-  req.background[0] = 0.2f;
-  req.background[2] = 0.7f;
+  const SceneRequest sr(s, s.verts, g, s.a.texture.rgb, mesh, gauss);
+  const AvatarRenderRequest& req = sr.req;
   render_avatar(req, buf);
   AvatarRenderGrads gr{dv.data(), doff.data(), drot.data(), dsc.data(), dcol.data(), dop.data(), dtex.data(), nullptr};
   render_avatar_backward(req, buf, s.weights.data(), s.walpha.data(), gauss ? dmeans.data() : nullptr, gr);
@@ -321,6 +322,43 @@ TEST(AvatarRender, MergeLayersAreConsistent) {
   AvatarRenderBuffers gs_only;
   loss_of(s, s.verts, s.a.gaussians, s.a.texture.rgb, false, true, gs_only);
   for (int p = 0; p < P; ++p) ASSERT_LE(both.alpha[size_t(p)], gs_only.alpha[size_t(p)] + 1e-6f);
+}
+
+// The merged render's removal cost (AvatarRenderGrads::removal_cost) against rendering the
+// avatar again without each Gaussian: the mesh and the background behind the Gaussians
+// count, those hidden behind the mesh cost nothing. Float renders: 1e-3 of a pixel plus
+// 1e-3 relative (the early stop may act where many Gaussians overlap).
+TEST(AvatarRender, RemovalCostIsWhatDeletingEachGaussianChanges) {
+  Scene s;
+  AvatarRenderBuffers buf, rest;
+  loss_of(s, s.verts, s.a.gaussians, s.a.texture.rgb, true, true, buf);
+  const std::vector<float> all = buf.image;
+  const BoundGaussians& g = s.a.gaussians;
+  const int n = g.size();
+  ASSERT_GT(n, 20);
+  std::vector<float> cost(static_cast<size_t>(n), 0.0f), d_op(static_cast<size_t>(n));
+  {
+    const SceneRequest r(s, s.verts, g, s.a.texture.rgb, true, true);
+    render_avatar(r.req, buf);
+    const std::vector<float> d_image(all.size(), 0.0f);
+    AvatarRenderGrads gr;
+    gr.opacity = d_op.data();
+    gr.removal_cost = cost.data();
+    render_avatar_backward(r.req, buf, d_image.data(), nullptr, nullptr, gr);
+  }
+  int shown = 0, hidden = 0;
+  for (int i = 0; i < n; i += std::max(1, n / 40)) {
+    BoundGaussians k = g;
+    k.opacity[size_t(i)] = 0.0f;  // alpha 0 everywhere: as if deleted
+    loss_of(s, s.verts, k, s.a.texture.rgb, true, true, rest);
+    double want = 0;
+    for (size_t q = 0; q < all.size(); ++q) want += std::fabs(double(all[q]) - double(rest.image[q])) / 3;
+    EXPECT_NEAR(cost[size_t(i)], want, 1e-3 + 1e-3 * want) << "Gaussian " << i;
+    shown += want > 0.05;
+    hidden += want == 0.0;
+  }
+  EXPECT_GT(shown, 5);
+  EXPECT_GT(hidden, 0) << "some Gaussians lie behind the mesh";
 }
 
 TEST(SilhouetteUnion, GradientMatchesFiniteDifferences) {

@@ -119,15 +119,15 @@ TEST(TrainConfig, PairsRoundTripExactly) {
 
 TEST(TrainConfig, EstimatedFitSettingsOfEachPreset) {
   EXPECT_EQ(estimated_fit_settings("tiny"),
-            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.005", "s3.w.opacity=2e-06", "s3.depth_margin=0.01",
+            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.005", "s3.w.opacity=0", "s3.prune_cost=0.05", "s3.depth_margin=0.01",
                                       "eval.tto_steps=100", "eval.antialias=true"}));
   // Ten times the preset's own pose rate (2e-4 in the paper preset).
   EXPECT_EQ(estimated_fit_settings("paper"),
-            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.002", "s3.w.opacity=2e-06", "s3.depth_margin=0.01",
+            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.002", "s3.w.opacity=0", "s3.prune_cost=0.05", "s3.depth_margin=0.01",
                                       "eval.tto_steps=100", "eval.antialias=true"}));
-  // The standard preset (512 px) doubles it too: its own weight kept up to 49% of a real clip's Gaussians.
+  // The standard preset (512 px) the same: the image cost filters, not an opacity weight.
   EXPECT_EQ(estimated_fit_settings("standard"),
-            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.005", "s3.w.opacity=2e-06", "s3.depth_margin=0.01",
+            (std::vector<std::string>{"s0.photo.steps=6000", "s0.surface.steps=2000", "s0.surface.max_in=0.015", "s0.surface.w.outside=4", "s1.lr.pose=0.005", "s3.w.opacity=0", "s3.prune_cost=0.05", "s3.depth_margin=0.01",
                                       "eval.tto_steps=100", "eval.antialias=true"}));
   EXPECT_NE(error_of([] { estimated_fit_settings("huge"); }).find("unknown preset 'huge'"), std::string::npos);
 }
@@ -160,7 +160,7 @@ TEST(TrainConfig, RunConfigAddsTheEstimatedFitSettingsUnderTheUsersOverrides) {
   EXPECT_EQ(config_to_pairs(est), config_to_pairs(expect));
   EXPECT_EQ(line,
             "fits: estimated (dataset.json): s0.photo.steps=6000 s0.surface.steps=2000 s0.surface.max_in=0.015 s0.surface.w.outside=4 "
-            "s1.lr.pose=0.005 s3.w.opacity=2e-06 "
+            "s1.lr.pose=0.005 s3.w.opacity=0 s3.prune_cost=0.05 "
             "s3.depth_margin=0.01 eval.tto_steps=100 eval.antialias=true "
             "(override any with key=value; fits=exact for the preset's own)");
 
